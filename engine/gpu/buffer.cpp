@@ -1,0 +1,103 @@
+#include "gpu/buffer.h"
+
+#include <functional>
+
+#include "gpu/submit.h"
+
+namespace cpmesh::gpu {
+
+namespace {
+
+std::string mib(uint64_t bytes) {
+  char s[64];
+  std::snprintf(s, sizeof s, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+  return s;
+}
+
+void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
+  const auto& d = ctx.info();
+  auto fail = [&](const char* limit_name, uint64_t limit) {
+    throw Error("buffer '" + label + "' needs " + std::to_string(bytes) + " bytes (" + mib(bytes) + "), more than " +
+                limit_name + " = " + std::to_string(limit) + " bytes (" + mib(limit) + ") on " + d.name +
+                "; reduce the problem size or pick a device with larger limits (`cpmesh devices`)");
+  };
+  if (bytes > d.max_storage_buffer_range) fail("maxStorageBufferRange", d.max_storage_buffer_range);
+  if (d.max_memory_allocation_size && bytes > d.max_memory_allocation_size)
+    fail("maxMemoryAllocationSize", d.max_memory_allocation_size);
+  uint64_t largest_heap = 0;
+  for (const auto& h : d.heaps)
+    if (h.device_local) largest_heap = std::max(largest_heap, h.size);
+  if (largest_heap && bytes > largest_heap) fail("the device-local memory heap size", largest_heap);
+}
+
+}  // namespace
+
+detail::BufferStorage::~BufferStorage() {
+  if (ctx && allocated_bytes) ctx->note_free(allocated_bytes);
+}
+
+BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUse use) {
+  check_size(ctx, label, bytes);
+  auto s = std::make_shared<detail::BufferStorage>();
+  s->label = std::move(label);
+  s->bytes = bytes;
+  guarded("creating buffer '" + s->label + "' of " + std::to_string(bytes) + " bytes", [&] {
+    using U = vk::BufferUsageFlagBits;
+    // Vulkan forbids empty buffers; an empty Buffer still owns a small one so that it can be bound.
+    const uint64_t alloc_bytes = std::max<uint64_t>(bytes, 16);
+    s->buffer = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo({}, alloc_bytes,
+                                                                    U::eStorageBuffer | U::eTransferSrc |
+                                                                        U::eTransferDst | U::eIndirectBuffer));
+    const auto req = s->buffer.getMemoryRequirements();
+    using M = vk::MemoryPropertyFlagBits;
+    uint32_t type = 0;
+    if (use == MemoryUse::readback)
+      type = ctx.memory_type(req.memoryTypeBits, M::eHostVisible | M::eHostCoherent, M::eHostCached);
+    else if (ctx.unified_memory())
+      type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, M::eHostVisible | M::eHostCoherent);
+    else
+      type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, {});
+    s->memory = vk::raii::DeviceMemory(ctx.device(), vk::MemoryAllocateInfo(req.size, type));
+    s->buffer.bindMemory(*s->memory, 0);
+    s->allocated_bytes = req.size;
+    s->ctx = &ctx;
+    ctx.note_allocation(req.size);
+    const auto flags = ctx.physical_device().getMemoryProperties().memoryTypes[type].propertyFlags;
+    if ((flags & M::eHostVisible) && (flags & M::eHostCoherent)) s->mapped = s->memory.mapMemory(0, VK_WHOLE_SIZE);
+  });
+  s_ = std::move(s);
+}
+
+void BufferBase::upload_bytes(const void* src, uint64_t bytes, uint64_t offset) {
+  if (bytes == 0) return;
+  if (offset + bytes > s_->bytes)
+    throw Error("upload of " + std::to_string(bytes) + " bytes at offset " + std::to_string(offset) +
+                " overruns buffer '" + s_->label + "' of " + std::to_string(s_->bytes) + " bytes");
+  if (s_->mapped) {
+    std::memcpy(static_cast<char*>(s_->mapped) + offset, src, bytes);
+    return;
+  }
+  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::readback);
+  std::memcpy(staging.s_->mapped, src, bytes);
+  submit_once(*s_->ctx, "uploading to buffer '" + s_->label + "'", [&](const vk::raii::CommandBuffer& cb) {
+    cb.copyBuffer(staging.handle(), handle(), vk::BufferCopy(0, offset, bytes));
+  });
+}
+
+void BufferBase::download_bytes(void* dst, uint64_t bytes, uint64_t offset) const {
+  if (bytes == 0) return;
+  if (offset + bytes > s_->bytes)
+    throw Error("download of " + std::to_string(bytes) + " bytes at offset " + std::to_string(offset) +
+                " overruns buffer '" + s_->label + "' of " + std::to_string(s_->bytes) + " bytes");
+  if (s_->mapped) {
+    std::memcpy(dst, static_cast<const char*>(s_->mapped) + offset, bytes);
+    return;
+  }
+  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::readback);
+  submit_once(*s_->ctx, "downloading from buffer '" + s_->label + "'", [&](const vk::raii::CommandBuffer& cb) {
+    cb.copyBuffer(handle(), staging.handle(), vk::BufferCopy(offset, 0, bytes));
+  });
+  std::memcpy(dst, staging.s_->mapped, bytes);
+}
+
+}  // namespace cpmesh::gpu

@@ -1,0 +1,135 @@
+#pragma once
+// The GPU context: one Vulkan instance, one device, one compute queue. Headless (no surface, no window system).
+//
+// Device choice: discrete GPU, then integrated, then virtual, then CPU (lavapipe); only devices with Vulkan 1.2 and a
+// compute queue qualify. ContextOptions::device (CLI --device) or the environment variable CPMESH_DEVICE overrides the
+// choice with an index from `cpmesh devices` or a case-insensitive substring of the device name.
+// Not thread-safe: one thread records and submits.
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "gpu/vk.h"
+
+namespace cpmesh::gpu {
+
+struct MemoryHeapInfo {
+  uint64_t size = 0;
+  bool device_local = false;
+};
+
+struct DeviceInfo {
+  uint32_t index = 0;
+  std::string name;
+  std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
+  std::string driver;
+  uint32_t api_version = 0;
+  bool usable = false;          // Vulkan >= 1.2 with a compute queue
+  std::string unusable_reason;  // why not, when !usable
+  uint64_t max_storage_buffer_range = 0;
+  uint64_t max_memory_allocation_size = 0;
+  uint32_t max_shared_memory = 0;
+  uint32_t max_workgroup_invocations = 0;
+  uint32_t max_workgroup_count[3] = {0, 0, 0};
+  uint32_t subgroup_size = 0;
+  bool shader_int64 = false;
+  bool shader_float64 = false;
+  bool float_atomic_add_buffer = false;  // VK_EXT_shader_atomic_float: float32 atomicAdd on storage buffers
+  bool float_atomic_add_shared = false;  // ... and on shared memory
+  bool timestamps = false;               // compute queue supports timestamp queries
+  double timestamp_period_ns = 0.0;
+  std::vector<MemoryHeapInfo> heaps;
+};
+
+std::string format_version(uint32_t api_version);
+
+// Every physical device the loader reports, in loader order, with `usable` set. Creates a temporary instance.
+std::vector<DeviceInfo> list_devices();
+
+// The device index a Context would choose: `selector` (an index or a case-insensitive name substring; `source` names
+// where it came from, for messages) or, when empty, the best usable device by type. Throws gpu::Error when none fits.
+uint32_t select_device(const std::vector<DeviceInfo>& devices, const std::string& selector,
+                       const std::string& source = "--device");
+
+struct ContextOptions {
+  std::string device;       // "" = CPMESH_DEVICE or automatic; else an index or a name substring
+  bool validation = false;  // enable VK_LAYER_KHRONOS_validation (also CPMESH_VALIDATION=1); errors are counted
+  bool profile = false;     // timestamp every dispatch (where the device supports it) into Context::profile()
+};
+
+// Per-kernel time from timestamp queries, accumulated over every submission.
+struct ProfileEntry {
+  uint64_t dispatches = 0;
+  double total_ms = 0.0;
+};
+
+struct MemoryStats {
+  uint64_t current_bytes = 0;
+  uint64_t peak_bytes = 0;
+  uint64_t allocations = 0;
+};
+
+class Context {
+ public:
+  explicit Context(const ContextOptions& options = {});
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  const DeviceInfo& info() const { return info_; }
+  bool validation_enabled() const { return validation_enabled_; }
+  bool profiling() const { return profiling_; }
+
+  // Validation messages of error severity since creation (the test suites fail on any).
+  uint64_t validation_error_count() const;
+  std::vector<std::string> validation_errors() const;
+
+  const std::map<std::string, ProfileEntry>& profile() const { return profile_; }
+  void add_profile_sample(const std::string& kernel, double ms);
+  void clear_profile() { profile_.clear(); }
+
+  const MemoryStats& memory_stats() const { return memory_; }
+  void note_allocation(uint64_t bytes);
+  void note_free(uint64_t bytes);
+
+  // Memory type index for `required` flags, preferring `preferred`; throws when none matches.
+  uint32_t memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required, vk::MemoryPropertyFlags preferred) const;
+  // True when device-local memory is also host-visible on this device (CPU drivers, integrated GPUs, resizable BAR):
+  // buffers are then mapped directly and no staging copy is needed.
+  bool unified_memory() const { return unified_memory_; }
+
+  const vk::raii::Device& device() const { return device_; }
+  const vk::raii::Queue& queue() const { return queue_; }
+  const vk::raii::CommandPool& command_pool() const { return command_pool_; }
+  const vk::raii::PhysicalDevice& physical_device() const { return physical_device_; }
+  uint32_t queue_family() const { return queue_family_; }
+  uint32_t timestamp_valid_bits() const { return timestamp_valid_bits_; }
+
+ struct Validation;  // validation message sink (opaque; public so the messenger callback can reach it)
+
+ private:
+  DeviceInfo info_;
+  bool validation_enabled_ = false;
+  bool profiling_ = false;
+  bool unified_memory_ = false;
+  uint32_t queue_family_ = 0;
+  uint32_t timestamp_valid_bits_ = 0;
+  vk::PhysicalDeviceMemoryProperties memory_properties_;
+  std::map<std::string, ProfileEntry> profile_;
+  MemoryStats memory_;
+  std::unique_ptr<Validation> validation_;  // outlives the messenger below (declared earlier, destroyed later)
+
+  // Declared in creation order so that they are destroyed in reverse.
+  vk::raii::Context vk_context_;
+  vk::raii::Instance instance_ = nullptr;
+  vk::raii::DebugUtilsMessengerEXT messenger_ = nullptr;
+  vk::raii::PhysicalDevice physical_device_ = nullptr;
+  vk::raii::Device device_ = nullptr;
+  vk::raii::Queue queue_ = nullptr;
+  vk::raii::CommandPool command_pool_ = nullptr;
+};
+
+}  // namespace cpmesh::gpu
