@@ -5,7 +5,7 @@
 // counters in 8 uints (a block holds at most 1024 keys, so no counter overflows).
 // Compiled as radix_scatter_u32 and radix_scatter_u64 (-DKEY64).
 // Bindings: 0 keys_in KEY[n]; 1 values_in uint[n]; 2 keys_out KEY[n]; 3 values_out uint[n]; 4 offsets uint[16*n_blocks].
-// Push: n, shift, n_blocks. Dispatch: n_blocks workgroups of 256. Loops: 4 + 8 x 8 + 8 iterations.
+// Push: n, shift, n_blocks, digit_mask (15, or fewer bits in the last pass when key_bits is not a multiple of 4). Dispatch: n_blocks workgroups of 256. Loops: 4 + 8 x 8 + 8 iterations.
 // Reference: ref::radix_sort.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -17,7 +17,7 @@ layout(std430, binding = 1) readonly buffer ValuesIn { uint values_in[]; };
 layout(std430, binding = 2) writeonly buffer KeysOut { KEY keys_out[]; };
 layout(std430, binding = 3) writeonly buffer ValuesOut { uint values_out[]; };
 layout(std430, binding = 4) readonly buffer Offsets { uint offsets[]; };
-layout(push_constant) uniform Push { uint n; uint shift; uint n_blocks; } pc;
+layout(push_constant) uniform Push { uint n; uint shift; uint n_blocks; uint digit_mask; } pc;
 
 const uint WORDS = RADIX / 2;        // two 16-bit counters per uint
 shared uint packed[WORDS * 256];     // [word][thread]: 8 KiB
@@ -41,7 +41,7 @@ void main() {
     rank_in_thread[k] = 0;
     if (base + k < pc.n) {
       key[k] = keys_in[base + k];
-      const uint d = digit_of(key[k], pc.shift);
+      const uint d = digit_of(key[k], pc.shift, pc.digit_mask);
       digit[k] = d;
       rank_in_thread[k] = counter(mine, d);
       mine[d >> 1] += 1u << ((d & 1) * 16);

@@ -225,6 +225,8 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
   }
   const uint32_t chosen = select_device(all, selector, source);
   info_ = all[chosen];
+  if (options.max_workgroups_x)
+    info_.max_workgroup_count[0] = std::min(info_.max_workgroup_count[0], options.max_workgroups_x);
   physical_device_ = std::move(physical[chosen]);
   queue_family_ = uint32_t(compute_queue_family(physical_device_, &timestamp_valid_bits_));
   profiling_ = options.profile && info_.timestamps;

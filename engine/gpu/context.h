@@ -58,6 +58,7 @@ struct ContextOptions {
   std::string device;       // "" = CPMESH_DEVICE or automatic; else an index or a name substring
   bool validation = false;  // enable VK_LAYER_KHRONOS_validation (also CPMESH_VALIDATION=1); errors are counted
   bool profile = false;     // timestamp every dispatch (where the device supports it) into Context::profile()
+  uint32_t max_workgroups_x = 0;  // 0 = the device's limit; tests lower it to exercise the 2-D dispatch split cheaply
 };
 
 // Per-kernel time from timestamp queries, accumulated over every submission.

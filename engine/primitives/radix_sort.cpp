@@ -1,5 +1,7 @@
 #include "primitives/radix_sort.h"
 
+#include <algorithm>
+
 #include "cpmesh/shaders.h"
 
 namespace cpmesh::gpu {
@@ -43,9 +45,11 @@ void RadixSort::record_passes(Sequence& seq, bool key64, const BufferBase& keys,
   const Buffer<uint32_t>* val_src = &values;
   const Buffer<uint32_t>* val_dst = &values_tmp;
   for (uint32_t pass = 0; pass < passes; ++pass) {
+    const uint32_t shift = pass * kDigitBits;
+    const uint32_t bits = std::min(kDigitBits, key_bits - shift);  // the last pass may take fewer bits
     const struct {
-      uint32_t n, shift, n_blocks;
-    } push{n, pass * kDigitBits, blocks};
+      uint32_t n, shift, n_blocks, digit_mask;
+    } push{n, shift, blocks, (1u << bits) - 1};
     seq.dispatch(histogram, {*key_src, hist}, push, uint64_t(blocks) * 256).barrier();
     scan_.record(seq, hist, hist, blocks * 16);
     seq.barrier().dispatch(scatter, {*key_src, *val_src, *key_dst, *val_dst, hist}, push, uint64_t(blocks) * 256);

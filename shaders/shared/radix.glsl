@@ -10,12 +10,13 @@ const uint BLOCK = 256 * ITEMS;
 
 #ifdef KEY64
 #define KEY uvec2
-uint digit_of(uvec2 key, uint shift) {
-  return (shift < 32 ? (key.x >> shift) : (key.y >> (shift - 32))) & (RADIX - 1);
+uint digit_of(uvec2 key, uint shift, uint mask) {
+  // A 4-bit digit never straddles the two words: shifts are multiples of 4.
+  return (shift < 32 ? (key.x >> shift) : (key.y >> (shift - 32))) & mask;
 }
 #else
 #define KEY uint
-uint digit_of(uint key, uint shift) { return (key >> shift) & (RADIX - 1); }
+uint digit_of(uint key, uint shift, uint mask) { return (key >> shift) & mask; }
 #endif
 
 #endif

@@ -1,0 +1,173 @@
+// The compute runtime: buffers, kernels (reflection and checks), sequences, profiling, error reporting.
+#include <doctest/doctest.h>
+
+#include <fstream>
+#include <string>
+
+#include "cpmesh/shaders.h"
+#include "gpu/reflect.h"
+#include "gpu/sequence.h"
+#include "gpu_fixture.h"
+#include "primitives/scan.h"
+#include "ref/primitives.h"
+
+using namespace cpmesh;
+using cpmesh::test::GpuFixture;
+
+TEST_CASE_FIXTURE(GpuFixture, "buffers round-trip data, including empty buffers and partial ranges") {
+  const auto data = test::random_u32(10007, 3);
+  gpu::Buffer<uint32_t> b(ctx, data, "roundtrip");
+  CHECK(b.size() == data.size());
+  CHECK(b.bytes() == data.size() * 4);
+  CHECK(b.download() == data);
+  std::vector<uint32_t> part = {1, 2, 3};
+  b.upload(part, 100);
+  const auto back = b.download(99, 5);
+  CHECK(back == std::vector<uint32_t>{data[99], 1, 2, 3, data[103]});
+  CHECK(b.read(101) == 2);
+
+  gpu::Buffer<float> empty(ctx, size_t(0), "empty");
+  CHECK(empty.size() == 0);
+  CHECK(empty.download().empty());
+
+  gpu::Buffer<double> readback(ctx, 4, "readback", gpu::MemoryUse::readback);
+  readback.upload(std::vector<double>{1.5, -2.5, 3.25, 0.0});
+  CHECK(readback.download() == std::vector<double>{1.5, -2.5, 3.25, 0.0});
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "out-of-range buffer access is an error, not a crash") {
+  gpu::Buffer<uint32_t> b(ctx, 10, "small");
+  CHECK_THROWS_WITH_AS(b.download(5, 6), doctest::Contains("'small'"), gpu::Error);
+  CHECK_THROWS_AS(b.upload(std::vector<uint32_t>(11)), gpu::Error);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "a buffer larger than maxStorageBufferRange gets an error naming both sizes") {
+  const uint64_t limit = ctx.info().max_storage_buffer_range;
+  const size_t count = size_t(limit / 4 + 1);
+  try {
+    gpu::Buffer<uint32_t> huge(ctx, count, "huge");
+    FAIL("no error for a buffer over the limit");
+  } catch (const gpu::Error& e) {
+    const std::string msg = e.what();
+    CHECK(msg.find("'huge'") != std::string::npos);
+    CHECK(msg.find(std::to_string(uint64_t(count) * 4)) != std::string::npos);
+    CHECK(msg.find(std::to_string(limit)) != std::string::npos);
+    CHECK(msg.find("maxStorageBufferRange") != std::string::npos);
+  }
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted, and freed when buffers go away") {
+  const uint64_t before = ctx.memory_stats().current_bytes;
+  {
+    gpu::Buffer<uint32_t> b(ctx, 1 << 20, "accounted");
+    CHECK(ctx.memory_stats().current_bytes >= before + (4u << 20));
+    CHECK(ctx.memory_stats().peak_bytes >= before + (4u << 20));
+  }
+  CHECK(ctx.memory_stats().current_bytes == before);
+}
+
+TEST_CASE("reflection reads bindings, push constants and workgroup size from SPIR-V") {
+  const auto scan = gpu::reflect(shaders::scan_blocks);
+  CHECK(scan.storage_buffers == 3);
+  CHECK(scan.push_constant_bytes == 4);
+  CHECK(scan.local_size[0] == 256);
+  CHECK(scan.spec_constants == 1);
+  const auto scatter = gpu::reflect(shaders::radix_scatter_u64);
+  CHECK(scatter.storage_buffers == 5);
+  CHECK(scatter.push_constant_bytes == 16);
+  const auto reduce = gpu::reflect(shaders::reduce_f32);
+  CHECK(reduce.push_constant_bytes == 8);
+  CHECK(reduce.storage_buffers == 2);
+
+  const uint32_t garbage[6] = {0xdeadbeef, 0, 0, 0, 0, 0};
+  CHECK_THROWS_WITH_AS(gpu::reflect(ShaderCode{"garbage", garbage, 6}), doctest::Contains("garbage"), gpu::Error);
+  std::vector<uint32_t> truncated(shaders::scan_blocks.words, shaders::scan_blocks.words + 40);
+  truncated[39] = 0xffff0000u | 71;  // an instruction claiming 65535 words
+  CHECK_THROWS_AS(gpu::reflect(ShaderCode{"truncated", truncated.data(), truncated.size()}), gpu::Error);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "dispatches are checked against the shader's interface") {
+  gpu::Kernel add(ctx, shaders::scan_add);
+  gpu::Buffer<uint32_t> a(ctx, 16, "a"), b(ctx, 16, "b");
+  gpu::Sequence seq(ctx);
+  const struct { uint32_t n; } ok{16};
+  const struct { uint32_t n, extra; } too_big{16, 0};
+  CHECK_THROWS_WITH_AS(seq.dispatch(add, {a}, ok, 16), doctest::Contains("binds 2"), gpu::Error);
+  CHECK_THROWS_WITH_AS(seq.dispatch(add, {a, b}, too_big, 16), doctest::Contains("push constants"), gpu::Error);
+  CHECK_THROWS_WITH_AS(gpu::Kernel(ctx, shaders::scan_blocks, {1, 2}), doctest::Contains("specialization"), gpu::Error);
+  seq.dispatch(add, {a, b}, ok, 16);
+  seq.submit_and_wait();
+  CHECK_THROWS_WITH_AS(seq.barrier(), doctest::Contains("after it was submitted"), gpu::Error);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "a sequence keeps its buffers alive and can be submitted again") {
+  gpu::Kernel add(ctx, shaders::scan_add);
+  gpu::Buffer<uint32_t> data(ctx, std::vector<uint32_t>(3000, 1), "data");
+  gpu::Sequence seq(ctx);
+  {
+    // Block offsets 0, 10, 20: the offsets buffer goes out of scope on the host before the GPU runs.
+    gpu::Buffer<uint32_t> offsets(ctx, std::vector<uint32_t>{0, 10, 20}, "offsets");
+    const struct { uint32_t n; } push{3000};
+    seq.dispatch(add, {data, offsets}, push, 3 * 256);
+  }
+  seq.submit_and_wait();
+  seq.submit_and_wait();
+  const auto out = data.download();
+  CHECK(out[0] == 1);
+  CHECK(out[1024] == 21);
+  CHECK(out[2999] == 41);
+}
+
+TEST_CASE("large dispatches are split over y when the group count exceeds the x limit") {
+  // A context whose x limit is 3 groups: a 1M-value scan needs 1024 groups per level, so every dispatch is split.
+  gpu::Context small(gpu::ContextOptions{"", true, false, 3});
+  const uint64_t errors = small.validation_error_count();
+  const auto data = test::random_u32((1 << 20) + 77, 5, 100);
+  gpu::Buffer<uint32_t> src(small, data, "src"), dst(small, data.size(), "dst"),
+      total(small, 1, "total", gpu::MemoryUse::readback);
+  gpu::Scan scan(small);
+  gpu::Sequence seq(small);
+  scan.record(seq, src, dst, uint32_t(data.size()), false, &total);
+  seq.submit_and_wait();
+  const auto want = ref::exclusive_scan(data);
+  CHECK(dst.download() == want);
+  CHECK(total.read(0) == want.back() + data.back());
+  CHECK(small.validation_error_count() == errors);
+}
+
+TEST_CASE("profiling records one timestamp pair per dispatch") {
+  gpu::Context profiled(gpu::ContextOptions{"", true, true});
+  if (!profiled.info().timestamps) {
+    MESSAGE("device has no timestamps; skipped");
+    return;
+  }
+  REQUIRE(profiled.profiling());
+  const auto data = test::random_u32(5000, 9);
+  gpu::Buffer<uint32_t> src(profiled, data, "src");
+  gpu::Scan scan(profiled);
+  gpu::Sequence seq(profiled);
+  scan.record(seq, src, src, uint32_t(data.size()));  // 5 blocks: scan_blocks twice (two levels), scan_add once
+  seq.submit_and_wait();
+  const auto& p = profiled.profile();
+  REQUIRE(p.count("scan_blocks") == 1);
+  CHECK(p.at("scan_blocks").dispatches == 2);
+  CHECK(p.at("scan_add").dispatches == 1);
+  CHECK(p.at("scan_blocks").total_ms > 0.0);
+  CHECK(profiled.validation_error_count() == 0);
+}
+
+TEST_CASE("the validation layers are on in the test suites and their errors are caught") {
+  gpu::Context checked(gpu::ContextOptions{"", true, false});
+  const bool installed = std::ifstream("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json").good();
+  if (!installed) {
+    MESSAGE("vulkan-validationlayers is not installed; validation is off");
+    return;
+  }
+  REQUIRE(checked.validation_enabled());
+  CHECK(checked.validation_error_count() == 0);
+  // A deliberate API misuse: a descriptor pool with maxSets = 0 (VUID-VkDescriptorPoolCreateInfo-maxSets-00301).
+  const vk::DescriptorPoolSize size(vk::DescriptorType::eStorageBuffer, 1);
+  vk::raii::DescriptorPool pool(checked.device(), vk::DescriptorPoolCreateInfo({}, 0, size));
+  CHECK(checked.validation_error_count() >= 1);
+  CHECK(checked.validation_errors().front().find("maxSets") != std::string::npos);
+}

@@ -1,0 +1,31 @@
+#pragma once
+// The cpmesh subcommands. Each add_* registers its subcommand (options, --help text) on the app and returns the action
+// to run when it was chosen; its option values live in the action's closure.
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "gpu/context.h"
+
+namespace cpmesh::cli {
+
+struct GlobalOptions {
+  std::string device;
+  bool profile = false;
+  bool validation = false;
+  gpu::ContextOptions context() const { return gpu::ContextOptions{device, validation, profile}; }
+};
+
+struct Command {
+  CLI::App* sub = nullptr;
+  std::function<int()> run;
+};
+
+Command add_devices_command(CLI::App& app, const GlobalOptions& g);
+Command add_selftest_command(CLI::App& app, const GlobalOptions& g);
+
+// Prints the per-kernel profile when --profile was given.
+void print_profile(const gpu::Context& ctx, const GlobalOptions& g);
+
+}  // namespace cpmesh::cli
