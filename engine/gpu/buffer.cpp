@@ -59,6 +59,9 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
       type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, {});
     s->memory = vk::raii::DeviceMemory(ctx.device(), vk::MemoryAllocateInfo(req.size, type));
     s->buffer.bindMemory(*s->memory, 0);
+    if (ctx.validation_enabled())  // validation messages then name the buffer
+      ctx.device().setDebugUtilsObjectNameEXT(vk::DebugUtilsObjectNameInfoEXT(
+          vk::ObjectType::eBuffer, uint64_t(static_cast<VkBuffer>(*s->buffer)), s->label.c_str()));
     s->allocated_bytes = req.size;
     s->ctx = &ctx;
     ctx.note_allocation(req.size);

@@ -35,6 +35,9 @@ Kernel::Kernel(Context& ctx, const ShaderCode& code, std::vector<uint32_t> spec_
                                                   spec_constants.empty() ? nullptr : &spec);
     p_->pipeline = vk::raii::Pipeline(ctx.device(), nullptr,
                                       vk::ComputePipelineCreateInfo({}, stage, *p_->pipeline_layout));
+    if (ctx.validation_enabled())
+      ctx.device().setDebugUtilsObjectNameEXT(vk::DebugUtilsObjectNameInfoEXT(
+          vk::ObjectType::ePipeline, uint64_t(static_cast<VkPipeline>(*p_->pipeline)), p_->name.c_str()));
   });
 }
 
