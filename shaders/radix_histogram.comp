@@ -3,7 +3,8 @@
 // Compiled as radix_histogram_u32 and radix_histogram_u64 (-DKEY64).
 // Bindings: 0 keys KEY[n]; 1 hist uint[16 * n_blocks], digit-major (hist[d * n_blocks + block]) so that one
 //           exclusive scan of hist gives every (digit, block) its global output offset.
-// Push: n, shift, n_blocks, digit_mask (15, or fewer bits in the last pass when key_bits is not a multiple of 4). Dispatch: n_blocks workgroups of 256. Loops: 4 iterations. Reference: ref::radix_sort.
+// Push: n, shift, n_blocks, digit_mask (15, or fewer bits in the last pass when key_bits is not a multiple of 4).
+// Dispatch: n_blocks workgroups of 256. Loops: 4 iterations. Reference: ref::radix_sort.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "radix.glsl"

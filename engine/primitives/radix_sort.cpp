@@ -50,9 +50,10 @@ void RadixSort::record_passes(Sequence& seq, bool key64, const BufferBase& keys,
     const struct {
       uint32_t n, shift, n_blocks, digit_mask;
     } push{n, shift, blocks, (1u << bits) - 1};
-    seq.dispatch(histogram, {*key_src, hist}, push, uint64_t(blocks) * 256).barrier();
+    seq.dispatch(histogram, {*key_src, hist}, push, uint64_t(blocks) * histogram.workgroup_size()).barrier();
     scan_.record(seq, hist, hist, blocks * 16);
-    seq.barrier().dispatch(scatter, {*key_src, *val_src, *key_dst, *val_dst, hist}, push, uint64_t(blocks) * 256);
+    seq.barrier().dispatch(scatter, {*key_src, *val_src, *key_dst, *val_dst, hist}, push,
+                          uint64_t(blocks) * scatter.workgroup_size());
     seq.barrier();
     std::swap(key_src, key_dst);
     std::swap(val_src, val_dst);
