@@ -1,6 +1,7 @@
 #include "primitives/selftest.h"
 
 #include <chrono>
+#include <type_traits>
 #include <cmath>
 #include <random>
 
@@ -110,39 +111,25 @@ std::vector<SelftestResult> run_selftest(Context& ctx, uint32_t n, uint64_t seed
     RadixSort sort(ctx);
     std::vector<uint32_t> idx(n);
     for (uint32_t i = 0; i < n; ++i) idx[i] = i;
-    {
-      Buffer<uint32_t> keys(ctx, u, "selftest keys32"), vals(ctx, idx, "selftest payload");
-      SelftestResult r{"radix_sort u32", n, false, {}, 0};
-      r.ms = timed([&] {
-        Sequence seq(ctx);
-        sort.record(seq, keys, vals, n);
-        seq.submit_and_wait();
-      });
-      auto k = u;
-      auto v = idx;
-      ref::radix_sort(k, v);
-      r.detail = first_mismatch(keys.download(), k);
-      if (r.detail.empty()) r.detail = first_mismatch(vals.download(), v);
-      r.passed = r.detail.empty();
-      out.push_back(r);
-    }
-    {
-      Buffer<uint64_t> keys(ctx, u64, "selftest keys64");
+    auto check_sort = [&](const char* name, const auto& keys_in) {
+      Buffer<typename std::decay_t<decltype(keys_in)>::value_type> keys(ctx, keys_in, "selftest keys");
       Buffer<uint32_t> vals(ctx, idx, "selftest payload");
-      SelftestResult r{"radix_sort u64", n, false, {}, 0};
+      SelftestResult r{name, n, false, {}, 0};
       r.ms = timed([&] {
         Sequence seq(ctx);
         sort.record(seq, keys, vals, n);
         seq.submit_and_wait();
       });
-      auto k = u64;
+      auto k = keys_in;
       auto v = idx;
       ref::radix_sort(k, v);
       r.detail = first_mismatch(keys.download(), k);
       if (r.detail.empty()) r.detail = first_mismatch(vals.download(), v);
       r.passed = r.detail.empty();
       out.push_back(r);
-    }
+    };
+    check_sort("radix_sort u32", u);
+    check_sort("radix_sort u64", u64);
   }
   return out;
 }

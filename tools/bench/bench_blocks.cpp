@@ -81,29 +81,21 @@ int main(int argc, char** argv) {
         record(seq);
         seq.submit_and_wait();
       };
-      auto upload32 = [&] { k.upload(keys); v.upload(idx); };
-      auto upload64 = [&] { k64.upload(keys64); v.upload(idx); };
 
-      {  // 32-bit sort
-        auto rk = keys;
+      auto bench_sort = [&](const char* name, const auto& keys_in, auto& key_buffer) {
+        auto upload = [&] { key_buffer.upload(keys_in); v.upload(idx); };
+        auto rk = keys_in;
         auto rv = idx;
-        upload32();
-        run([&](gpu::Sequence& s) { sort.record(s, k, v, n); });
-        const double ref_ms = best_ms(1, [&] { rk = keys; rv = idx; }, [&] { ref::radix_sort(rk, rv); });
-        const bool ok = k.download() == rk && v.download() == rv;
-        const double gpu_ms = best_ms(repeat, upload32, [&] { run([&](gpu::Sequence& s) { sort.record(s, k, v, n); }); });
-        rows.push_back({"radix_sort u32+payload", n, gpu_ms, ref_ms, ok});
-      }
-      {  // 64-bit sort
-        auto rk = keys64;
-        auto rv = idx;
-        upload64();
-        run([&](gpu::Sequence& s) { sort.record(s, k64, v, n); });
-        const double ref_ms = best_ms(1, [&] { rk = keys64; rv = idx; }, [&] { ref::radix_sort(rk, rv); });
-        const bool ok = k64.download() == rk && v.download() == rv;
-        const double gpu_ms = best_ms(repeat, upload64, [&] { run([&](gpu::Sequence& s) { sort.record(s, k64, v, n); }); });
-        rows.push_back({"radix_sort u64+payload", n, gpu_ms, ref_ms, ok});
-      }
+        upload();
+        run([&](gpu::Sequence& s) { sort.record(s, key_buffer, v, n); });
+        const double ref_ms = best_ms(1, [&] { rk = keys_in; rv = idx; }, [&] { ref::radix_sort(rk, rv); });
+        const bool ok = key_buffer.download() == rk && v.download() == rv;
+        const double gpu_ms =
+            best_ms(repeat, upload, [&] { run([&](gpu::Sequence& s) { sort.record(s, key_buffer, v, n); }); });
+        rows.push_back({name, n, gpu_ms, ref_ms, ok});
+      };
+      bench_sort("radix_sort u32+payload", keys, k);
+      bench_sort("radix_sort u64+payload", keys64, k64);
       {  // scan
         std::vector<uint32_t> want;
         const double ref_ms = best_ms(repeat, [] {}, [&] { want = ref::exclusive_scan(idx); });
