@@ -11,6 +11,7 @@ packages=(
   vulkan-validationlayers              # the tests run with validation on
   libglm-dev libtet1.5-dev zlib1g-dev  # vector maths, TetGen, gzip
   libcli11-dev                         # command-line parsing: subcommands, validation and --help for free
+  libtbb-dev                           # oneTBB: parallel loops over voxels and lines for the fields (work stealing)
   nlohmann-json3-dev                   # report.json and benchmark JSON lines
   doctest-dev                          # tests
 )

@@ -1,0 +1,103 @@
+#include "fields/brick_field.h"
+
+#include <algorithm>
+
+namespace cpmesh::fields {
+
+BrickField::BrickField(const Grid& grid, float background) : grid_(grid) {
+  brick_dims_ = (grid.dims + glm::ivec3(kBrick - 1)) / kBrick;
+  const size_t n = size_t(brick_dims_.x) * size_t(brick_dims_.y) * size_t(brick_dims_.z);
+  slot_.assign(n, -1);
+  constant_.assign(n, background);
+}
+
+size_t BrickField::memory_bytes() const {
+  return slot_.size() * sizeof(int32_t) + constant_.size() * sizeof(float) + data_.size() * sizeof(float);
+}
+
+float BrickField::at(int i, int j, int k) const {
+  i = std::clamp(i, 0, grid_.dims.x - 1);
+  j = std::clamp(j, 0, grid_.dims.y - 1);
+  k = std::clamp(k, 0, grid_.dims.z - 1);
+  const glm::ivec3 b(i / kBrick, j / kBrick, k / kBrick);
+  const size_t bi = brick_index(b);
+  const int32_t s = slot_[bi];
+  if (s < 0) return constant_[bi];
+  return data_[size_t(s) * kBrickVoxels + size_t(((k % kBrick) * kBrick + (j % kBrick)) * kBrick + (i % kBrick))];
+}
+
+void BrickField::allocate(const glm::ivec3& b) {
+  const size_t bi = brick_index(b);
+  if (slot_[bi] >= 0) return;
+  slot_[bi] = int32_t(data_.size() / kBrickVoxels);
+  data_.resize(data_.size() + kBrickVoxels, constant_[bi]);
+}
+
+float* BrickField::brick_data(const glm::ivec3& b) {
+  const int32_t s = slot_[brick_index(b)];
+  return s < 0 ? nullptr : data_.data() + size_t(s) * kBrickVoxels;
+}
+
+void BrickField::set_brick_constant(const glm::ivec3& b, float value) { constant_[brick_index(b)] = value; }
+
+void BrickField::set(int i, int j, int k, float value) {
+  const glm::ivec3 b(i / kBrick, j / kBrick, k / kBrick);
+  allocate(b);
+  brick_data(b)[((k % kBrick) * kBrick + (j % kBrick)) * kBrick + (i % kBrick)] = value;
+}
+
+namespace {
+// Catmull-Rom weights and their derivatives for the 4 samples at -1, 0, 1, 2 around t in [0, 1].
+void catmull_rom(double t, double w[4], double dw[4]) {
+  const double t2 = t * t, t3 = t2 * t;
+  w[0] = 0.5 * (-t3 + 2 * t2 - t);
+  w[1] = 0.5 * (3 * t3 - 5 * t2 + 2);
+  w[2] = 0.5 * (-3 * t3 + 4 * t2 + t);
+  w[3] = 0.5 * (t3 - t2);
+  dw[0] = 0.5 * (-3 * t2 + 4 * t - 1);
+  dw[1] = 0.5 * (9 * t2 - 10 * t);
+  dw[2] = 0.5 * (-9 * t2 + 8 * t + 1);
+  dw[3] = 0.5 * (3 * t2 - 2 * t);
+}
+}  // namespace
+
+double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const {
+  const glm::dvec3 f = glm::floor(p);
+  const glm::ivec3 base(f);
+  const glm::dvec3 t = p - f;
+  double wx[4], wy[4], wz[4], dx[4], dy[4], dz[4];
+  catmull_rom(t.x, wx, dx);
+  catmull_rom(t.y, wy, dy);
+  catmull_rom(t.z, wz, dz);
+  double v = 0;
+  glm::dvec3 g(0.0);
+  for (int c = 0; c < 4; ++c)
+    for (int b = 0; b < 4; ++b) {
+      double row = 0, row_dx = 0;
+      for (int a = 0; a < 4; ++a) {
+        const double s = at(base.x + a - 1, base.y + b - 1, base.z + c - 1);
+        row += wx[a] * s;
+        row_dx += dx[a] * s;
+      }
+      v += wz[c] * wy[b] * row;
+      g.x += wz[c] * wy[b] * row_dx;
+      g.y += wz[c] * dy[b] * row;
+      g.z += dz[c] * wy[b] * row;
+    }
+  if (gradient) *gradient = g;
+  return v;
+}
+
+double BrickField::sample_linear(const glm::dvec3& p) const {
+  const glm::dvec3 f = glm::floor(p);
+  const glm::ivec3 b(f);
+  const glm::dvec3 t = p - f;
+  double v = 0;
+  for (int c = 0; c < 2; ++c)
+    for (int bb = 0; bb < 2; ++bb)
+      for (int a = 0; a < 2; ++a)
+        v += (a ? t.x : 1 - t.x) * (bb ? t.y : 1 - t.y) * (c ? t.z : 1 - t.z) * at(b.x + a, b.y + bb, b.z + c);
+  return v;
+}
+
+}  // namespace cpmesh::fields

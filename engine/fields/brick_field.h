@@ -1,0 +1,50 @@
+#pragma once
+// A scalar field on the voxel grid stored sparsely: bricks of 8^3 voxels hold values only where the field varies
+// (the narrow band around an interface); every other brick is one constant. Memory grows with the interface area.
+#include <cstdint>
+#include <vector>
+
+#include "fields/grid.h"
+
+namespace cpmesh::fields {
+
+class BrickField {
+ public:
+  static constexpr int kBrick = 8;
+  static constexpr int kBrickVoxels = kBrick * kBrick * kBrick;
+
+  BrickField() = default;
+  BrickField(const Grid& grid, float background);
+
+  const Grid& grid() const { return grid_; }
+  glm::ivec3 brick_dims() const { return brick_dims_; }
+  size_t allocated_bricks() const { return data_.size() / kBrickVoxels; }
+  size_t memory_bytes() const;
+
+  // Value at a voxel; outside the grid the nearest voxel's value (clamp to edge).
+  float at(int i, int j, int k) const;
+  // Sets a voxel, allocating its brick (filled with the brick's constant) when needed. Not thread-safe across bricks
+  // being allocated; use allocate() first for parallel writes.
+  void set(int i, int j, int k, float value);
+  void set_brick_constant(const glm::ivec3& brick, float value);
+  void allocate(const glm::ivec3& brick);
+  bool allocated(const glm::ivec3& brick) const { return slot_[brick_index(brick)] >= 0; }
+  float* brick_data(const glm::ivec3& brick);  // null when the brick is constant
+
+  // Catmull-Rom tricubic interpolation at a continuous voxel-index position (voxel centres at integers): C1, passes
+  // through the samples. `gradient` (optional) receives d/d(index).
+  double sample_cubic(const glm::dvec3& ijk, glm::dvec3* gradient = nullptr) const;
+  double sample_linear(const glm::dvec3& ijk) const;
+
+ private:
+  size_t brick_index(const glm::ivec3& b) const {
+    return (size_t(b.z) * size_t(brick_dims_.y) + size_t(b.y)) * size_t(brick_dims_.x) + size_t(b.x);
+  }
+  Grid grid_;
+  glm::ivec3 brick_dims_{0};
+  std::vector<int32_t> slot_;     // per brick: index of its data block, or -1 when constant
+  std::vector<float> constant_;   // per brick: its value when constant
+  std::vector<float> data_;       // allocated bricks, kBrickVoxels each, x fastest
+};
+
+}  // namespace cpmesh::fields

@@ -1,0 +1,32 @@
+#pragma once
+// The voxel grid that fields, the closest point embedding and the particles share.
+//
+// Coordinates: "local" physical coordinates put voxel (i, j, k)'s centre at (i, j, k) * spacing, i.e. the volume's
+// origin is subtracted. Everything inside the pipeline (fields, closest points, particles) works in local coordinates,
+// which keeps float32 precise near the volume; outputs add the origin back.
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+namespace cpmesh::fields {
+
+struct Grid {
+  glm::ivec3 dims{0};
+  glm::dvec3 spacing{1.0};
+  glm::dvec3 origin{0.0};  // physical position of voxel (0, 0, 0)'s centre
+
+  size_t voxel_count() const { return size_t(dims.x) * size_t(dims.y) * size_t(dims.z); }
+  size_t index(int i, int j, int k) const { return (size_t(k) * size_t(dims.y) + size_t(j)) * size_t(dims.x) + size_t(i); }
+  bool inside(int i, int j, int k) const {
+    return i >= 0 && j >= 0 && k >= 0 && i < dims.x && j < dims.y && k < dims.z;
+  }
+  glm::dvec3 local(const glm::dvec3& ijk) const { return ijk * spacing; }      // voxel index space -> local
+  glm::dvec3 to_index(const glm::dvec3& local_pos) const { return local_pos / spacing; }
+  glm::dvec3 to_physical(const glm::dvec3& local_pos) const { return local_pos + origin; }
+  double min_spacing() const { return std::min(spacing.x, std::min(spacing.y, spacing.z)); }
+};
+
+}  // namespace cpmesh::fields
