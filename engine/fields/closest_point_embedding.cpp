@@ -1,0 +1,371 @@
+#include "fields/closest_point_embedding.h"
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+namespace cpmesh::fields {
+
+namespace {
+
+using MaterialSet = std::array<uint16_t, 4>;
+constexpr uint16_t kNone = 0xffff;
+
+// Indicator value and gradient (local coordinates) of material m.
+double eval(const IndicatorFields& F, int m, const glm::dvec3& local, glm::dvec3& grad) {
+  glm::dvec3 gi;
+  const double v = F.fields[size_t(m)].sample_cubic(local / F.grid.spacing, &gi);
+  grad = gi / F.grid.spacing;
+  return v;
+}
+
+// Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
+bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol) {
+  const double max_step = F.grid.min_spacing();
+  for (int it = 0; it < iterations; ++it) {
+    glm::dvec3 g0;
+    const double f0 = eval(F, m[0], x, g0);
+    glm::dvec3 J[3];
+    double g[3];
+    double gmax = 0;
+    for (int a = 0; a < k; ++a) {
+      glm::dvec3 ga;
+      g[a] = f0 - eval(F, m[a + 1], x, ga);
+      J[a] = g0 - ga;
+      gmax = std::max(gmax, std::fabs(g[a]));
+    }
+    glm::dvec3 step(0.0);
+    if (k == 1) {
+      const double n2 = glm::dot(J[0], J[0]);
+      if (n2 < 1e-20) return false;
+      step = J[0] * (g[0] / n2);
+    } else if (k == 2) {
+      const glm::dmat2 A(glm::dot(J[0], J[0]), glm::dot(J[1], J[0]), glm::dot(J[0], J[1]), glm::dot(J[1], J[1]));
+      if (std::fabs(glm::determinant(A)) < 1e-24) return false;
+      const glm::dvec2 y = glm::inverse(A) * glm::dvec2(g[0], g[1]);
+      step = J[0] * y.x + J[1] * y.y;
+    } else {
+      const glm::dmat3 JT(J[0], J[1], J[2]);  // columns are the gradients
+      const glm::dmat3 Jm = glm::transpose(JT);
+      if (std::fabs(glm::determinant(Jm)) < 1e-24) return false;
+      step = glm::inverse(Jm) * glm::dvec3(g[0], g[1], g[2]);
+    }
+    const double len = glm::length(step);
+    if (len > max_step) step *= max_step / len;
+    x -= step;
+    if (gmax < tol && len < tol) return true;
+  }
+  return false;
+}
+
+int materials_of(const Feature& f, int* m) {
+  const int k = f.material_count();
+  for (int a = 0; a < k; ++a) m[a] = f.materials[size_t(a)];
+  return k;
+}
+
+MaterialSet set_of(std::vector<int> m) {
+  std::sort(m.begin(), m.end());
+  MaterialSet s = {kNone, kNone, kNone, kNone};
+  for (size_t a = 0; a < m.size() && a < 4; ++a) s[a] = uint16_t(m[a]);
+  return s;
+}
+
+// Number of 26-connected components of a set of dual cells.
+uint32_t count_components(std::vector<glm::ivec3>& cells) {
+  auto less = [](const glm::ivec3& a, const glm::ivec3& b) {
+    return a.z != b.z ? a.z < b.z : (a.y != b.y ? a.y < b.y : a.x < b.x);
+  };
+  std::sort(cells.begin(), cells.end(), less);
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  std::vector<uint8_t> seen(cells.size(), 0);
+  uint32_t components = 0;
+  std::vector<size_t> stack;
+  for (size_t start = 0; start < cells.size(); ++start) {
+    if (seen[start]) continue;
+    ++components;
+    seen[start] = 1;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const glm::ivec3 c = cells[stack.back()];
+      stack.pop_back();
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const auto it = std::lower_bound(cells.begin(), cells.end(), c + glm::ivec3(dx, dy, dz), less);
+            if (it == cells.end() || *it != c + glm::ivec3(dx, dy, dz)) continue;
+            const size_t n = size_t(it - cells.begin());
+            if (!seen[n]) {
+              seen[n] = 1;
+              stack.push_back(n);
+            }
+          }
+    }
+  }
+  return components;
+}
+
+FeatureKind kind_of(size_t count) {
+  return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
+}
+
+}  // namespace
+
+uint32_t embedding_hash(uint64_t key) {
+  // 64-bit to 32-bit mix (murmur3 finaliser on both halves), done in 32-bit arithmetic so GLSL matches exactly.
+  uint32_t lo = uint32_t(key), hi = uint32_t(key >> 32);
+  uint32_t h = lo ^ (hi * 0x9e3779b9u);
+  h ^= h >> 16;
+  h *= 0x85ebca6bu;
+  h ^= h >> 13;
+  h *= 0xc2b2ae35u;
+  h ^= h >> 16;
+  return h;
+}
+
+int64_t ClosestPointEmbedding::find_block(size_t cell, uint32_t feature) const {
+  if (keys.empty()) return -1;
+  const uint64_t key = (uint64_t(cell) << 16) | feature;
+  const size_t mask = keys.size() - 1;
+  size_t slot = embedding_hash(key) & mask;
+  for (uint32_t probe = 0; probe < kMaxProbes; ++probe, slot = (slot + 1) & mask) {
+    if (keys[slot] == key) return blocks[slot];
+    if (keys[slot] == kEmpty) return -1;
+  }
+  return -1;
+}
+
+int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 4> materials) const {
+  for (size_t i = 0; i < features.size(); ++i)
+    if (features[i].kind == kind && features[i].materials == materials) return int(i);
+  return -1;
+}
+
+bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
+                        int newton_iterations, int rounds) {
+  int m[4];
+  const int count = materials_of(feature, m);
+  const int k = count - 1;
+  const double tol = 1e-6 * F.grid.min_spacing();
+  glm::dvec3 x = x0;
+  bool ok = newton(F, m, k, x, newton_iterations, tol);
+  for (int round = 1; ok && k < 3 && round < rounds; ++round) {
+    // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
+    // rather than the end of the gradient path; every round ends with a converged Newton solve.
+    glm::dvec3 g0, ga, gb;
+    eval(F, m[0], x, g0);
+    eval(F, m[1], x, ga);
+    const glm::dvec3 d = x0 - x;
+    glm::dvec3 next;
+    if (k == 1) {
+      const glm::dvec3 n = glm::normalize(g0 - ga);
+      next = x + d - n * glm::dot(d, n);
+    } else {
+      eval(F, m[2], x, gb);
+      const glm::dvec3 t = glm::normalize(glm::cross(g0 - ga, g0 - gb));
+      next = x + t * glm::dot(d, t);
+    }
+    if (glm::length(next - x) < tol) break;
+    glm::dvec3 y = next;
+    if (!newton(F, m, k, y, newton_iterations, tol)) break;  // keep the last converged point
+    x = y;
+  }
+  out = x;
+  return ok;
+}
+
+ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, const EmbeddingOptions& options) {
+  ClosestPointEmbedding E;
+  E.grid = F.grid;
+  E.sub = options.sub;
+  const Grid& grid = F.grid;
+  const int M = int(F.material_count());
+  const double h = grid.min_spacing();
+
+  // 1. Features: material sets meeting in a 2x2x2 group of voxels (the dual cell around a grid corner), judged by the
+  //    argmax of the fields at the voxel centres (which is each voxel's label). Quadruple-point candidates keep the
+  //    dual cell's centre as a Newton start.
+  std::set<MaterialSet> sets;
+  std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
+  std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
+  std::vector<uint16_t> label_index(grid.voxel_count());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      const int i = int(v % size_t(grid.dims.x)), j = int((v / size_t(grid.dims.x)) % size_t(grid.dims.y));
+      const int kk = int(v / (size_t(grid.dims.x) * size_t(grid.dims.y)));
+      int best = 0;
+      float bv = -1e30f;
+      for (int mm = 0; mm < M; ++mm) {
+        const float f = F.fields[size_t(mm)].at(i, j, kk);
+        if (f > bv) {
+          bv = f;
+          best = mm;
+        }
+      }
+      label_index[v] = uint16_t(best);
+    }
+  });
+  for (int kk = 0; kk + 1 < grid.dims.z; ++kk)
+    for (int j = 0; j + 1 < grid.dims.y; ++j)
+      for (int i = 0; i + 1 < grid.dims.x; ++i) {
+        uint16_t present[8];
+        int n = 0;
+        for (int c = 0; c < 8; ++c) {
+          const uint16_t l = label_index[grid.index(i + (c & 1), j + ((c >> 1) & 1), kk + (c >> 2))];
+          if (std::find(present, present + n, l) == present + n) present[n++] = l;
+        }
+        if (n < 2) continue;
+        for (int a = 1; a < n; ++a)  // insertion sort (n <= 8)
+          for (int b = a; b > 0 && present[b - 1] > present[b]; --b) std::swap(present[b - 1], present[b]);
+        // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
+        for (int mask = 1; mask < (1 << n); ++mask) {
+          const int bits = __builtin_popcount(unsigned(mask));
+          if (bits < 2 || bits > 4) continue;
+          std::vector<int> ms;
+          for (int b = 0; b < n; ++b)
+            if (mask & (1 << b)) ms.push_back(present[b]);
+          const MaterialSet s = set_of(ms);
+          sets.insert(s);
+          if (bits == 4) quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
+          if (bits == 3) curve_cells[s].push_back(glm::ivec3(i, j, kk));
+        }
+      }
+  for (size_t count : {2u, 3u, 4u})
+    for (const auto& s : sets) {
+      const size_t c = size_t(std::count_if(s.begin(), s.end(), [](uint16_t x) { return x != kNone; }));
+      if (c == count) E.features.push_back(Feature{kind_of(c), s});
+    }
+  std::map<MaterialSet, uint32_t> feature_of;
+  for (size_t f = 0; f < E.features.size(); ++f) feature_of[E.features[f].materials] = uint32_t(f);
+  for (auto& [s, cells] : curve_cells) E.features[feature_of[s]].components = count_components(cells);
+
+  // 2. Quadruple points: Newton from every candidate dual cell, merged when within a voxel.
+  for (const auto& [s, starts] : quad_starts) {
+    const Feature& feat = E.features[feature_of[s]];
+    std::vector<glm::dvec3> found;
+    for (const auto& start : starts) {
+      glm::dvec3 p;
+      if (!project_to_feature(F, feat, start, p, options.newton_iterations, 1)) continue;
+      if (glm::length((p - start) / grid.spacing) > 2.0) continue;  // wandered off: not this candidate's point
+      if (std::none_of(found.begin(), found.end(), [&](const glm::dvec3& q) { return glm::length((p - q) / grid.spacing) < 1.0; }))
+        found.push_back(p);
+    }
+    for (const auto& p : found) E.quadruple_points.push_back({feature_of[s], p});
+    E.features[feature_of[s]].components = uint32_t(found.size());
+  }
+
+  // 3. Coarse cells: a voxel belongs to a feature's band when every material of the feature is within
+  //    band + stencil reach of it (f_m > -reach), so WENO4 stencils around any point within `band` are complete.
+  const double reach = (options.band + 1.5) * h;
+  tbb::enumerable_thread_specific<std::vector<uint64_t>> local_keys;
+  tbb::parallel_for(tbb::blocked_range<int>(0, grid.dims.z), [&](const tbb::blocked_range<int>& r) {
+    auto& out = local_keys.local();
+    std::vector<int> near;
+    for (int kk = r.begin(); kk < r.end(); ++kk)
+      for (int j = 0; j < grid.dims.y; ++j)
+        for (int i = 0; i < grid.dims.x; ++i) {
+          near.clear();
+          for (int mm = 0; mm < M; ++mm)
+            if (F.fields[size_t(mm)].at(i, j, kk) > -reach) near.push_back(mm);
+          if (near.size() < 2) continue;
+          const int n = int(std::min<size_t>(near.size(), 8));
+          for (int mask = 1; mask < (1 << n); ++mask) {
+            const int bits = __builtin_popcount(unsigned(mask));
+            if (bits < 2 || bits > 4) continue;
+            std::vector<int> ms;
+            for (int b = 0; b < n; ++b)
+              if (mask & (1 << b)) ms.push_back(near[size_t(b)]);
+            const auto it = feature_of.find(set_of(ms));
+            if (it != feature_of.end()) out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
+          }
+        }
+  });
+  std::vector<uint64_t> cells;
+  for (auto& part : local_keys) cells.insert(cells.end(), part.begin(), part.end());
+  std::sort(cells.begin(), cells.end());
+
+  // 4. Hash table: capacity a power of two at least twice the entries; grow until every probe run is short.
+  size_t capacity = 16;
+  while (capacity < 2 * cells.size()) capacity *= 2;
+  while (true) {
+    E.keys.assign(capacity, ClosestPointEmbedding::kEmpty);
+    E.blocks.assign(capacity, 0);
+    bool fits = true;
+    for (size_t b = 0; b < cells.size() && fits; ++b) {
+      size_t slot = embedding_hash(cells[b]) & (capacity - 1);
+      uint32_t probe = 0;
+      while (E.keys[slot] != ClosestPointEmbedding::kEmpty) {
+        slot = (slot + 1) & (capacity - 1);
+        if (++probe >= ClosestPointEmbedding::kMaxProbes) fits = false;
+      }
+      E.keys[slot] = cells[b];
+      E.blocks[slot] = uint32_t(b);
+    }
+    if (fits) break;
+    capacity *= 2;
+  }
+
+  // 5. Fine level: the closest point of every fine point of every block, by Newton projection on the smooth fields,
+  //    restricted to the feature (bounding curves and points take over beyond them).
+  const int sub = options.sub, per_block = sub * sub * sub;
+  E.fine.resize(cells.size() * size_t(per_block));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, cells.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      const size_t cell = size_t(cells[b] >> 16);
+      const uint32_t fid = uint32_t(cells[b] & 0xffff);
+      const glm::ivec3 c(int(cell % size_t(grid.dims.x)), int((cell / size_t(grid.dims.x)) % size_t(grid.dims.y)),
+                         int(cell / (size_t(grid.dims.x) * size_t(grid.dims.y))));
+      for (int q = 0; q < per_block; ++q) {
+        const glm::dvec3 ijk = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
+        const glm::dvec3 x0 = grid.local(ijk);
+        glm::dvec3 cp = x0;
+        uint32_t feature = fid;
+        // Restriction: at most two escalations (interface -> curve -> point).
+        for (int level = 0; level < 3; ++level) {
+          const Feature& feat = E.features[feature];
+          if (feat.kind == FeatureKind::quadruple_point) {
+            double best = 1e300;
+            for (const auto& qp : E.quadruple_points) {  // the nearest located point of this material set
+              const double d = glm::length(qp.position - x0);
+              if (qp.feature == feature && d < best) {
+                best = d;
+                cp = qp.position;
+              }
+            }
+            break;
+          }
+          project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds);
+          int m[4];
+          const int count = materials_of(feat, m);
+          glm::dvec3 unused;
+          const double own = eval(F, m[0], cp, unused);
+          int intruder = -1;
+          double worst = own + 1e-4 * h;
+          for (int mm = 0; mm < M; ++mm) {
+            if (std::find(m, m + count, mm) != m + count) continue;
+            const double v = F.fields[size_t(mm)].sample_cubic(cp / grid.spacing);
+            if (v > worst) {
+              worst = v;
+              intruder = mm;
+            }
+          }
+          if (intruder < 0 || count == 4) break;
+          std::vector<int> ms(m, m + count);
+          ms.push_back(intruder);
+          const auto it = feature_of.find(set_of(ms));
+          if (it == feature_of.end()) break;
+          feature = it->second;
+        }
+        E.fine[b * size_t(per_block) + size_t(q)] = glm::vec4(glm::vec3(cp), 0.0f);
+      }
+    }
+  });
+  return E;
+}
+
+}  // namespace cpmesh::fields

@@ -1,0 +1,53 @@
+#include "ref/cp_lookup.h"
+
+#include <cmath>
+
+namespace cpmesh::ref {
+
+float weno4(float f0, float f1, float f2, float f3, float t) {
+  // Two quadratic interpolants, on {-1, 0, 1} and {0, 1, 2}; ideal weights (2 - t)/3 and (t + 1)/3 make their blend
+  // the cubic interpolant; the smoothness indicators are written in differences from the centre values so float32
+  // keeps them accurate when the values (coordinates) are large.
+  const float p1 = f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t;
+  const float p2 = f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
+  const float a = f0 - f1, b = f2 - f1, c = f1 - f2, d = f3 - f2;
+  const float is1 = (13.0f * a * a + 26.0f * a * b + 25.0f * b * b) / 12.0f;
+  const float is2 = (25.0f * c * c + 26.0f * c * d + 13.0f * d * d) / 12.0f;
+  const float eps = 1e-6f;
+  const float alpha1 = ((2.0f - t) / 3.0f) / ((eps + is1) * (eps + is1));
+  const float alpha2 = ((t + 1.0f) / 3.0f) / ((eps + is2) * (eps + is2));
+  return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
+}
+
+CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& local, uint32_t feature) {
+  CpResult r;
+  r.value = glm::vec4(local, 0.0f);
+  const int sub = E.sub;
+  const glm::vec3 u = local / glm::vec3(E.grid.spacing) * float(sub);
+  const glm::vec3 g0 = glm::floor(u);
+  const glm::vec3 t = u - g0;
+  const glm::ivec3 base = glm::ivec3(g0) - 1;
+  glm::vec4 v[4][4][4];
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) {
+        const glm::ivec3 f = base + glm::ivec3(x, y, z);
+        if (glm::any(glm::lessThan(f, glm::ivec3(0)))) return r;
+        const glm::ivec3 cell = f / sub, s = f - cell * sub;
+        if (glm::any(glm::greaterThanEqual(cell, E.grid.dims))) return r;
+        const int64_t block = E.find_block(E.grid.index(cell.x, cell.y, cell.z), feature);
+        if (block < 0) return r;
+        v[z][y][x] = E.fine[size_t(block) * size_t(sub * sub * sub) + size_t((s.z * sub + s.y) * sub + s.x)];
+      }
+  glm::vec4 vy[4][4], vz[4];
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int c = 0; c < 4; ++c) vy[z][y][c] = weno4(v[z][y][0][c], v[z][y][1][c], v[z][y][2][c], v[z][y][3][c], t.x);
+  for (int z = 0; z < 4; ++z)
+    for (int c = 0; c < 4; ++c) vz[z][c] = weno4(vy[z][0][c], vy[z][1][c], vy[z][2][c], vy[z][3][c], t.y);
+  for (int c = 0; c < 4; ++c) r.value[c] = weno4(vz[0][c], vz[1][c], vz[2][c], vz[3][c], t.z);
+  r.valid = true;
+  return r;
+}
+
+}  // namespace cpmesh::ref

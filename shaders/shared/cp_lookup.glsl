@@ -1,0 +1,84 @@
+// Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
+// Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader:
+//   buffers  cp_keys (uvec2[], the hash table's keys: low, high word), cp_blocks (uint[]), cp_fine (vec4[])
+//   and the values CP_DIMS (ivec3), CP_SUB (int), CP_SPACING (vec3), CP_MASK (uint, table size - 1).
+// Loops: 64 stencil points x at most CP_MAX_PROBES probes (2048 iterations per call, far below lavapipe's limit).
+#ifndef CPMESH_CP_LOOKUP_GLSL
+#define CPMESH_CP_LOOKUP_GLSL
+
+const uint CP_MAX_PROBES = 32;  // ClosestPointEmbedding::kMaxProbes
+const uint CP_EMPTY = 0xffffffffu;
+
+uint cp_hash(uvec2 key) {  // fields::embedding_hash
+  uint h = key.x ^ (key.y * 0x9e3779b9u);
+  h ^= h >> 16;
+  h *= 0x85ebca6bu;
+  h ^= h >> 13;
+  h *= 0xc2b2ae35u;
+  h ^= h >> 16;
+  return h;
+}
+
+// Block of (cell, feature) or -1. key = cell << 16 | feature, as two 32-bit words.
+int cp_find_block(uint cell, uint feature) {
+  const uvec2 key = uvec2((cell << 16) | feature, cell >> 16);
+  uint slot = cp_hash(key) & CP_MASK;
+  for (uint probe = 0; probe < CP_MAX_PROBES; ++probe) {
+    const uvec2 k = cp_keys[slot];
+    if (k == key) return int(cp_blocks[slot]);
+    if (k.x == CP_EMPTY && k.y == CP_EMPTY) return -1;
+    slot = (slot + 1) & CP_MASK;
+  }
+  return -1;
+}
+
+float cp_weno4(float f0, float f1, float f2, float f3, float t) {  // ref::weno4
+  const float p1 = f1 + 0.5 * (f2 - f0) * t + 0.5 * (f2 - 2.0 * f1 + f0) * t * t;
+  const float p2 = f1 + 0.5 * (-f3 + 4.0 * f2 - 3.0 * f1) * t + 0.5 * (f3 - 2.0 * f2 + f1) * t * t;
+  const float a = f0 - f1, b = f2 - f1, c = f1 - f2, d = f3 - f2;
+  const float is1 = (13.0 * a * a + 26.0 * a * b + 25.0 * b * b) / 12.0;
+  const float is2 = (25.0 * c * c + 26.0 * c * d + 13.0 * d * d) / 12.0;
+  const float eps = 1e-6;
+  const float alpha1 = ((2.0 - t) / 3.0) / ((eps + is1) * (eps + is1));
+  const float alpha2 = ((t + 1.0) / 3.0) / ((eps + is2) * (eps + is2));
+  return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
+}
+
+vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
+  return vec4(cp_weno4(f0.x, f1.x, f2.x, f3.x, t), cp_weno4(f0.y, f1.y, f2.y, f3.y, t),
+              cp_weno4(f0.z, f1.z, f2.z, f3.z, t), cp_weno4(f0.w, f1.w, f2.w, f3.w, t));
+}
+
+// Closest point (xyz) and sizing (w) for a point in local coordinates on `feature`; valid = false when part of the
+// stencil lies outside the feature's band (the point left it), and then the point itself is returned.
+vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
+  valid = false;
+  const vec3 u = local_pos / CP_SPACING * float(CP_SUB);
+  const vec3 g0 = floor(u);
+  const vec3 t = u - g0;
+  const ivec3 base = ivec3(g0) - 1;
+  vec4 vy[4];
+  for (int z = 0; z < 4; ++z) {
+    vec4 vx[4];
+    for (int y = 0; y < 4; ++y) {
+      vec4 v[4];
+      for (int x = 0; x < 4; ++x) {
+        const ivec3 f = base + ivec3(x, y, z);
+        if (any(lessThan(f, ivec3(0)))) return vec4(local_pos, 0.0);
+        const ivec3 cell = f / CP_SUB;
+        const ivec3 s = f - cell * CP_SUB;
+        if (any(greaterThanEqual(cell, CP_DIMS))) return vec4(local_pos, 0.0);
+        const uint cell_index = uint((cell.z * CP_DIMS.y + cell.y) * CP_DIMS.x + cell.x);
+        const int block = cp_find_block(cell_index, feature);
+        if (block < 0) return vec4(local_pos, 0.0);
+        v[x] = cp_fine[uint(block) * uint(CP_SUB * CP_SUB * CP_SUB) + uint((s.z * CP_SUB + s.y) * CP_SUB + s.x)];
+      }
+      vx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
+    }
+    vy[z] = cp_weno4v(vx[0], vx[1], vx[2], vx[3], t.y);
+  }
+  valid = true;
+  return cp_weno4v(vy[0], vy[1], vy[2], vy[3], t.z);
+}
+
+#endif

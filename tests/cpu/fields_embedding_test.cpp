@@ -1,0 +1,90 @@
+// Closest point embedding on analytic volumes: the sphere (one interface) and a small wedge ball (9 interfaces,
+// triple curves, 4 quadruple points), and the WENO4 lookup reference.
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include "fields/closest_point_embedding.h"
+#include "ref/cp_lookup.h"
+#include "test_volumes.h"
+
+using namespace cpmesh;
+using namespace cpmesh::fields;
+
+TEST_CASE("WENO4 reproduces quadratics exactly and does not overshoot a step") {
+  for (float t : {0.0f, 0.25f, 0.5f, 0.9f}) {
+    auto q = [](float x) { return 3.0f + 2.0f * x - 0.5f * x * x; };
+    CHECK(ref::weno4(q(-1), q(0), q(1), q(2), t) == doctest::Approx(q(t)).epsilon(1e-5));
+    const float step = ref::weno4(0, 0, 1, 1, t);
+    CHECK(step >= -1e-3f);
+    CHECK(step <= 1.001f);
+  }
+  // Large offsets (coordinates far from the origin) keep float32 accuracy: indicators use differences.
+  CHECK(ref::weno4(300.0f, 300.5f, 301.0f, 301.5f, 0.5f) == doctest::Approx(300.75f).epsilon(1e-7));
+}
+
+TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and near the true sphere") {
+  const auto vol = test::sphere_volume(56, {27.3, 27.6, 27.1}, 20.0);
+  const auto fields = build_indicator_fields(vol.grid, vol.labels.data());
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto E = build_closest_point_embedding(fields);
+  MESSAGE("embedding: " << E.block_count() << " blocks, " << E.memory_bytes() / 1024 << " KiB, "
+                        << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s");
+  REQUIRE(E.features.size() == 1);
+  CHECK(E.features[0].kind == FeatureKind::interface);
+  CHECK(E.quadruple_points.empty());
+  double worst_sphere = 0, worst_zero = 0;
+  for (const auto& p : E.fine) {
+    const glm::dvec3 cp(p);
+    worst_sphere = std::max(worst_sphere, std::fabs(glm::length(cp - vol.centre) - 20.0));
+    glm::dvec3 g1, g0;
+    const double g = fields.fields[1].sample_cubic(cp, &g1) - fields.fields[0].sample_cubic(cp, &g0);
+    worst_zero = std::max(worst_zero, std::fabs(g) / glm::length(g1 - g0));
+  }
+  MESSAGE("closest points: max distance to the true sphere " << worst_sphere << ", to the zero set " << worst_zero);
+  CHECK(worst_sphere < 0.5);
+  CHECK(worst_zero < 0.01);
+
+  // Lookups near the surface agree with a direct Newton projection of the query point.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> off(-1.0, 1.0);
+  double worst_lookup = 0;
+  for (int i = 0; i < 500; ++i) {
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    const glm::dvec3 q = vol.centre + dir * (20.0 + off(rng));
+    const auto r = ref::cp_lookup(E, glm::vec3(q), 0);
+    REQUIRE(r.valid);
+    glm::dvec3 direct;
+    REQUIRE(project_to_feature(fields, E.features[0], q, direct));
+    worst_lookup = std::max(worst_lookup, glm::length(glm::dvec3(glm::vec3(r.value)) - direct));
+  }
+  MESSAGE("WENO4 lookup vs direct projection: max " << worst_lookup << " voxel");
+  CHECK(worst_lookup < 0.02);
+  // Far from the surface the stencil leaves the band and the lookup says so.
+  CHECK_FALSE(ref::cp_lookup(E, glm::vec3(vol.centre), 0).valid);
+}
+
+TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near the analytic ones") {
+  const auto wb = test::wedge_ball_volume(48);
+  const auto fields = build_indicator_fields(wb.grid, wb.labels.data());
+  const auto E = build_closest_point_embedding(fields);
+  int interfaces = 0, curves = 0, curve_components = 0;
+  for (const auto& f : E.features) {
+    interfaces += f.kind == FeatureKind::interface;
+    curves += f.kind == FeatureKind::triple_curve;
+    if (f.kind == FeatureKind::triple_curve) curve_components += int(f.components);
+  }
+  CHECK(interfaces == 9);
+  CHECK(curves == 7);             // material sets: (1,2,3) meets in two separate curves
+  CHECK(curve_components == 8);
+  REQUIRE(E.quadruple_points.size() == 4);
+  for (const auto& want : wb.quadruple_points) {
+    double best = 1e9;
+    for (const auto& qp : E.quadruple_points) best = std::min(best, glm::length(qp.position - want));
+    MESSAGE("quadruple point error " << best << " voxel");
+    CHECK(best < 1.0);
+  }
+}

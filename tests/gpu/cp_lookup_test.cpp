@@ -1,0 +1,75 @@
+// shaders/cp_lookup.comp against ref::cp_lookup on the sphere and the wedge ball embeddings.
+#include <doctest/doctest.h>
+
+#include <random>
+
+#include "fields/cp_lookup_gpu.h"
+#include "gpu_fixture.h"
+#include "ref/cp_lookup.h"
+#include "test_volumes.h"
+
+using namespace cpmesh;
+using cpmesh::test::GpuFixture;
+
+namespace {
+
+void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& queries) {
+  fields::GpuEmbedding ge(ctx, E);
+  fields::CpLookup lookup(ctx);
+  const uint32_t n = uint32_t(queries.size());
+  gpu::Buffer<glm::vec4> q(ctx, queries, "queries"), results(ctx, n, "results");
+  gpu::Buffer<uint32_t> valid(ctx, n, "valid");
+  gpu::Sequence seq(ctx);
+  lookup.record(seq, ge, q, results, valid, n);
+  seq.submit_and_wait();
+  const auto got = results.download();
+  const auto got_valid = valid.download();
+  size_t n_valid = 0;
+  float worst = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    const auto want = ref::cp_lookup(E, glm::vec3(queries[i]), glm::floatBitsToUint(queries[i].w));
+    REQUIRE(bool(got_valid[i]) == want.valid);
+    if (!want.valid) continue;
+    ++n_valid;
+    worst = std::max(worst, glm::length(glm::vec3(got[i]) - glm::vec3(want.value)));
+  }
+  MESSAGE(n_valid << " of " << n << " lookups valid; max GPU - reference difference " << worst << " voxel");
+  CHECK(n_valid > n / 2);
+  CHECK(worst < 1e-5f);
+}
+
+}  // namespace
+
+TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: sphere") {
+  const auto vol = test::sphere_volume(48, {23.4, 23.7, 23.2}, 16.0);
+  const auto F = fields::build_indicator_fields(vol.grid, vol.labels.data());
+  const auto E = fields::build_closest_point_embedding(F);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> off(-3.0, 3.0);
+  std::vector<glm::vec4> queries;
+  for (int i = 0; i < 4000; ++i) {  // mostly near the surface, some far from it (invalid)
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    queries.emplace_back(glm::vec3(vol.centre + dir * (16.0 + off(rng))), glm::uintBitsToFloat(0u));
+  }
+  queries.emplace_back(-5.0f, 3.0f, 3.0f, glm::uintBitsToFloat(0u));  // outside the grid
+  compare(ctx, E, queries);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: wedge ball, every feature") {
+  const auto wb = test::wedge_ball_volume(40);
+  const auto F = fields::build_indicator_fields(wb.grid, wb.labels.data());
+  const auto E = fields::build_closest_point_embedding(F);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> jitter(-0.7f, 0.7f);
+  std::vector<glm::vec4> queries;
+  // Points near stored closest points of every block, tagged with that block's feature.
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty || rng() % 6) continue;
+    const uint32_t feature = uint32_t(E.keys[slot] & 0xffff);
+    const glm::vec3 cp(E.fine[size_t(E.blocks[slot]) * 8]);
+    queries.emplace_back(cp + glm::vec3(jitter(rng), jitter(rng), jitter(rng)), glm::uintBitsToFloat(feature));
+  }
+  REQUIRE(queries.size() > 1000);
+  compare(ctx, E, queries);
+}

@@ -1,0 +1,60 @@
+#pragma once
+// Analytic test volumes built in memory (DESIGN.md "Synthetic test volumes"), with their known answers.
+#include <cmath>
+#include <vector>
+
+#include "fields/grid.h"
+
+namespace cpmesh::test {
+
+struct TestVolume {
+  fields::Grid grid;
+  std::vector<uint16_t> labels;
+  glm::dvec3 centre{0.0};
+  std::vector<glm::dvec3> quadruple_points;  // local coordinates
+};
+
+// Label 1 inside a sphere (voxel centres closer than radius), 0 outside, in an n^3 grid of unit spacing.
+inline TestVolume sphere_volume(int n, const glm::dvec3& centre, double radius) {
+  TestVolume v;
+  v.grid = fields::Grid{{n, n, n}, {1, 1, 1}, {0, 0, 0}};
+  v.centre = centre;
+  v.labels.resize(v.grid.voxel_count());
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        v.labels[v.grid.index(i, j, k)] = glm::length(glm::dvec3(i, j, k) - centre) < radius ? 1 : 0;
+  return v;
+}
+
+// The wedge ball scaled to n^3 (128^3: ball radius 50): background 0; three wedges 1, 2, 3 split by half-planes
+// through the vertical axis; an off-centre inner ball 4 (radius 18) that contains a piece of the axis and so crosses
+// every wedge plane. 9 interfaces, 8 triple curves, 4 quadruple points.
+inline TestVolume wedge_ball_volume(int n) {
+  TestVolume v;
+  const double s = n / 128.0, R = 50 * s, r = 18 * s, rot = 0.3;
+  v.grid = fields::Grid{{n, n, n}, {1, 1, 1}, {0, 0, 0}};
+  v.centre = glm::dvec3((n - 1) / 2.0 + 0.1, (n - 1) / 2.0 - 0.2, (n - 1) / 2.0 + 0.15);
+  const glm::dvec3 inner = v.centre + s * glm::dvec3(6, 4, 5);
+  v.labels.resize(v.grid.voxel_count());
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const glm::dvec3 p(i, j, k);
+        uint16_t label = 0;
+        if (glm::length(p - inner) < r) {
+          label = 4;
+        } else if (glm::length(p - v.centre) < R) {
+          double a = std::atan2(p.y - v.centre.y, p.x - v.centre.x) - rot;
+          while (a < 0) a += 2 * M_PI;
+          label = uint16_t(1 + int(a / (2 * M_PI / 3)) % 3);
+        }
+        v.labels[v.grid.index(i, j, k)] = label;
+      }
+  const double dz = std::sqrt(r * r - (36 + 16) * s * s);
+  v.quadruple_points = {v.centre + glm::dvec3(0, 0, R), v.centre - glm::dvec3(0, 0, R),
+                        glm::dvec3(v.centre.x, v.centre.y, inner.z + dz), glm::dvec3(v.centre.x, v.centre.y, inner.z - dz)};
+  return v;
+}
+
+}  // namespace cpmesh::test
