@@ -1,0 +1,257 @@
+#include "fields/sizing_field.h"
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace cpmesh::fields {
+
+namespace {
+
+glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local, const glm::dvec3& spacing) {
+  glm::dvec3 g;
+  f.sample_cubic(local / spacing, &g);
+  return g / spacing;
+}
+
+// Distance from p along the normal into material m to where f_m stops growing (its ridge, the medial axis). A ridge
+// farther than the stored band cannot be seen and does not limit h (infinity).
+double ridge_distance(const BrickField& f, const glm::dvec3& p, const glm::dvec3& spacing, double band, double step) {
+  const glm::dvec3 g = gradient(f, p, spacing);
+  const double len = glm::length(g);
+  constexpr double none = 1e300;
+  if (len < 1e-12) return none;
+  const glm::dvec3 n = g / len;  // into the material
+  double prev = f.sample_cubic(p / spacing);
+  for (double t = step; t <= band; t += step) {
+    const double v = f.sample_cubic((p + t * n) / spacing);
+    if (v >= band * 0.999) return none;  // reached the clamped interior: no ridge within the band
+    if (v <= prev) return t - 0.5 * step;
+    prev = v;
+  }
+  return none;
+}
+
+// Largest principal curvature of a surface through p with normal n, by a least-squares fit of the height function
+// z = a x^2 + b xy + c y^2 + d x + e y to nearby surface points in the tangent frame. Fitting over a few voxels
+// measures the shape at the scale of the sizing field, not the staircase residue a voxel wide.
+glm::dmat3 fitted_shape(const glm::dvec3& p, const glm::dvec3& n, const std::vector<glm::dvec3>& points) {
+  const glm::dvec3 helper = std::fabs(n.x) < 0.7 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+  const glm::dvec3 t1 = glm::normalize(glm::cross(n, helper)), t2 = glm::cross(n, t1);
+  double A[5][5] = {}, rhs[5] = {};
+  int used = 0;
+  for (const auto& q : points) {
+    const glm::dvec3 d = q - p;
+    const double x = glm::dot(d, t1), y = glm::dot(d, t2), z = glm::dot(d, n);
+    const double row[5] = {x * x, x * y, y * y, x, y};
+    for (int r = 0; r < 5; ++r) {
+      for (int c = 0; c < 5; ++c) A[r][c] += row[r] * row[c];
+      rhs[r] += row[r] * z;
+    }
+    ++used;
+  }
+  if (used < 8) return glm::dmat3(0.0);
+  // Gaussian elimination with partial pivoting on the 5x5 normal equations.
+  for (int c = 0; c < 5; ++c) {
+    int piv = c;
+    for (int r = c + 1; r < 5; ++r)
+      if (std::fabs(A[r][c]) > std::fabs(A[piv][c])) piv = r;
+    if (std::fabs(A[piv][c]) < 1e-12) return glm::dmat3(0.0);
+    std::swap(A[c], A[piv]);
+    std::swap(rhs[c], rhs[piv]);
+    for (int r = c + 1; r < 5; ++r) {
+      const double f = A[r][c] / A[c][c];
+      for (int k = c; k < 5; ++k) A[r][k] -= f * A[c][k];
+      rhs[r] -= f * rhs[c];
+    }
+  }
+  double sol[5];
+  for (int r = 4; r >= 0; --r) {
+    double v = rhs[r];
+    for (int k = r + 1; k < 5; ++k) v -= A[r][k] * sol[k];
+    sol[r] = v / A[r][r];
+  }
+  // Second fundamental form [[2a, b], [b, 2c]] in the tangent frame (the linear terms absorb a tilt of the normal),
+  // as a 3x3 tensor so that neighbours' forms can be averaged.
+  const double a = 2 * sol[0], b = sol[1], c = 2 * sol[2];
+  return a * glm::outerProduct(t1, t1) + b * (glm::outerProduct(t1, t2) + glm::outerProduct(t2, t1)) +
+         c * glm::outerProduct(t2, t2);
+}
+
+// Largest |eigenvalue| of a shape tensor (its third eigenvalue, along the normal, is about zero).
+double max_curvature(const glm::dmat3& S) {
+  const double tr = S[0][0] + S[1][1] + S[2][2];
+  double fro2 = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) fro2 += S[c][r] * S[c][r];
+  const double disc = std::sqrt(std::max(0.0, 2.0 * fro2 - tr * tr));
+  return std::max(std::fabs(0.5 * (tr + disc)), std::fabs(0.5 * (tr - disc)));
+}
+
+constexpr int kFitCells = 3;
+
+}  // namespace
+
+SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding& E, const SizingOptions& options) {
+  const Grid& grid = F.grid;
+  const double h_min = options.h_min > 0 ? options.h_min : 0.25 * grid.min_spacing();
+  const double h_max = options.h_max > 0 ? options.h_max : 4.0 * grid.min_spacing();
+  const int per_block = E.sub * E.sub * E.sub;
+  const size_t blocks = E.block_count();
+  const uint64_t nx = uint64_t(grid.dims.x), nxy = uint64_t(grid.dims.x) * uint64_t(grid.dims.y);
+  auto cell_ijk = [&](uint64_t cell) {
+    return glm::ivec3(int(cell % nx), int((cell / nx) % uint64_t(grid.dims.y)), int(cell / nxy));
+  };
+
+  // Which (cell, feature) each block is.
+  std::vector<uint64_t> block_key(blocks);
+  for (size_t slot = 0; slot < E.keys.size(); ++slot)
+    if (E.keys[slot] != ClosestPointEmbedding::kEmpty) block_key[E.blocks[slot]] = E.keys[slot];
+
+  // 1. Per interface block: the largest principal curvature, fitted to the closest points of the same interface's
+  //    blocks within two cells, and the distances to the ridges (medial axes) of its two materials.
+  std::vector<glm::dmat3> shape(blocks, glm::dmat3(0.0));
+  std::vector<double> ridge(blocks, 1e300);
+  std::vector<uint8_t> is_interface(blocks, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<glm::dvec3> points;
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      const uint32_t fid = uint32_t(block_key[b] & 0xffff);
+      const Feature& feature = E.features[fid];
+      if (feature.kind != FeatureKind::interface) continue;
+      is_interface[b] = 1;
+      const glm::dvec3 p(glm::vec3(E.fine[b * size_t(per_block)]));
+      const BrickField& fa = F.fields[feature.materials[0]];
+      const BrickField& fb = F.fields[feature.materials[1]];
+      const glm::dvec3 g = gradient(fa, p, grid.spacing) - gradient(fb, p, grid.spacing);
+      if (glm::length(g) < 1e-12) continue;
+      points.clear();
+      const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
+      for (int dz = -kFitCells; dz <= kFitCells; ++dz)
+        for (int dy = -kFitCells; dy <= kFitCells; ++dy)
+          for (int dx = -kFitCells; dx <= kFitCells; ++dx) {
+            const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
+            if (!grid.inside(w.x, w.y, w.z)) continue;
+            const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
+            if (nb >= 0) points.emplace_back(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
+          }
+      shape[b] = fitted_shape(p, glm::normalize(g), points);
+      const double step = 0.25 * grid.min_spacing();
+      ridge[b] = std::min(ridge_distance(fa, p, grid.spacing, F.band, step), ridge_distance(fb, p, grid.spacing, F.band, step));
+    }
+  });
+
+  // The fitted forms still carry noise, and grading spreads every low outlier of h: average the (signed) forms over
+  //    the 3x3x3 neighbouring blocks of the same interface before taking the largest principal curvature; averaging
+  //    |k| instead would bias h low.
+  for (int pass = 0; pass < 3; ++pass) {
+    std::vector<glm::dmat3> averaged(blocks, glm::dmat3(0.0));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t b = r.begin(); b < r.end(); ++b) {
+        if (!is_interface[b]) continue;
+        const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
+        const uint32_t fid = uint32_t(block_key[b] & 0xffff);
+        glm::dmat3 sum(0.0);
+        int n = 0;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
+              if (!grid.inside(w.x, w.y, w.z)) continue;
+              const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
+              if (nb < 0) continue;
+              sum += shape[size_t(nb)];
+              ++n;
+            }
+        averaged[b] = sum / double(n);
+      }
+    });
+    shape.swap(averaged);
+  }
+
+  // 2. Raw h per voxel cell: the smallest over the interface blocks in it. Junction features take the h of the
+  //    interfaces around them through the cells they share.
+  std::vector<uint64_t> cells(blocks);
+  for (size_t b = 0; b < blocks; ++b) cells[b] = block_key[b] >> 16;
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  auto cell_slot = [&](uint64_t cell) -> int64_t {
+    const auto it = std::lower_bound(cells.begin(), cells.end(), cell);
+    return it != cells.end() && *it == cell ? int64_t(it - cells.begin()) : -1;
+  };
+  SizingStats stats;
+  std::vector<double> hc(cells.size(), h_max);
+  for (size_t b = 0; b < blocks; ++b) {
+    if (!is_interface[b]) continue;
+    const double k = max_curvature(shape[b]);
+    const double radius = k > 1e-12 ? 1.0 / k : 1e300;
+    const double lfs = std::min(radius, ridge[b]);
+    const double h = options.density * lfs;
+    if (h < h_min || h > h_max)
+      ++stats.clamped;
+    else if (radius <= ridge[b])
+      ++stats.curvature_limited;
+    else
+      ++stats.thickness_limited;
+    double& cell_h = hc[size_t(cell_slot(block_key[b] >> 16))];
+    cell_h = std::min(cell_h, std::clamp(h, h_min, h_max));
+  }
+
+  // 3. Grading: Dijkstra over the 26-neighbourhood of the band's cells enforces h(c) <= h(n) + grading * |c - n|.
+  using Item = std::pair<double, size_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (size_t c = 0; c < cells.size(); ++c) queue.push({hc[c], c});
+  while (!queue.empty()) {
+    const auto [h, c] = queue.top();
+    queue.pop();
+    if (h > hc[c]) continue;
+    const glm::ivec3 v = cell_ijk(cells[c]);
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
+          if ((dx | dy | dz) == 0 || !grid.inside(w.x, w.y, w.z)) continue;
+          const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
+          if (n < 0) continue;
+          const double candidate = h + options.grading * glm::length(glm::dvec3(dx, dy, dz) * grid.spacing);
+          if (candidate < hc[size_t(n)]) {
+            hc[size_t(n)] = candidate;
+            queue.push({candidate, size_t(n)});
+          }
+        }
+  }
+
+  // 4. Every fine point: the graded cell field, trilinear over the band cells around it.
+  stats.h_min = 1e300;
+  double sum = 0;
+  for (size_t b = 0; b < blocks; ++b) {
+    const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
+    for (int q = 0; q < per_block; ++q) {
+      const glm::dvec3 t = glm::dvec3(q % E.sub, (q / E.sub) % E.sub, q / (E.sub * E.sub)) / double(E.sub);
+      double graded = 0, weight = 0;
+      for (int c = 0; c < 8; ++c) {
+        const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
+        const glm::ivec3 w = v + o;
+        if (!grid.inside(w.x, w.y, w.z)) continue;
+        const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
+        if (n < 0) continue;
+        const double wt = (o.x ? t.x : 1 - t.x) * (o.y ? t.y : 1 - t.y) * (o.z ? t.z : 1 - t.z);
+        graded += wt * hc[size_t(n)];
+        weight += wt;
+      }
+      const double h = weight > 0 ? graded / weight : hc[size_t(cell_slot(block_key[b] >> 16))];
+      E.fine[b * size_t(per_block) + size_t(q)].w = float(h);
+      stats.h_min = std::min(stats.h_min, h);
+      stats.h_max = std::max(stats.h_max, h);
+      sum += h;
+    }
+  }
+  stats.h_mean = E.fine.empty() ? 0 : sum / double(E.fine.size());
+  if (E.fine.empty()) stats.h_min = 0;
+  return stats;
+}
+
+}  // namespace cpmesh::fields
