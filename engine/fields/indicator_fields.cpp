@@ -48,54 +48,6 @@ void gaussian_pass(std::vector<float>& f, const glm::ivec3& n, int axis, double 
   });
 }
 
-// Tightening: explicit steps of phi_t = -(K - clamp(K, -2/r, 2/r)) |grad phi|, K = -div(grad phi / |grad phi|)
-// (k1 + k2, positive where the material is convex), on the voxels near the interface, with the sign constraint.
-void tighten(std::vector<float>& phi, const std::vector<uint8_t>& inside, const glm::ivec3& n, const glm::dvec3& spacing,
-             double radius, int iterations, float keep) {
-  const double h = std::min(spacing.x, std::min(spacing.y, spacing.z));
-  const double cap = 2.0 / radius, dt = 0.12 * h * h;
-  const size_t sx = 1, sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
-  std::vector<size_t> active;  // interior voxels (all 26 neighbours in the crop) within 3 voxels of the interface
-  for (int k = 1; k + 1 < n.z; ++k)
-    for (int j = 1; j + 1 < n.y; ++j)
-      for (int i = 1; i + 1 < n.x; ++i) {
-        const size_t c = size_t(i) * sx + size_t(j) * sy + size_t(k) * sz;
-        if (std::fabs(phi[c]) < 3.0 * h) active.push_back(c);
-      }
-  std::vector<float> next(active.size());
-  for (int it = 0; it < iterations; ++it) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size()), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t a = r.begin(); a < r.end(); ++a) {
-        const size_t c = active[a];
-        auto at = [&](int di, int dj, int dk) {
-          return double(phi[size_t(int64_t(c) + di * int64_t(sx) + dj * int64_t(sy) + dk * int64_t(sz))]);
-        };
-        const double p0 = at(0, 0, 0);
-        const double px = (at(1, 0, 0) - at(-1, 0, 0)) / (2 * spacing.x);
-        const double py = (at(0, 1, 0) - at(0, -1, 0)) / (2 * spacing.y);
-        const double pz = (at(0, 0, 1) - at(0, 0, -1)) / (2 * spacing.z);
-        const double pxx = (at(1, 0, 0) - 2 * p0 + at(-1, 0, 0)) / (spacing.x * spacing.x);
-        const double pyy = (at(0, 1, 0) - 2 * p0 + at(0, -1, 0)) / (spacing.y * spacing.y);
-        const double pzz = (at(0, 0, 1) - 2 * p0 + at(0, 0, -1)) / (spacing.z * spacing.z);
-        const double pxy = (at(1, 1, 0) - at(1, -1, 0) - at(-1, 1, 0) + at(-1, -1, 0)) / (4 * spacing.x * spacing.y);
-        const double pxz = (at(1, 0, 1) - at(1, 0, -1) - at(-1, 0, 1) + at(-1, 0, -1)) / (4 * spacing.x * spacing.z);
-        const double pyz = (at(0, 1, 1) - at(0, 1, -1) - at(0, -1, 1) + at(0, -1, -1)) / (4 * spacing.y * spacing.z);
-        const double g2 = px * px + py * py + pz * pz;
-        double value = p0;
-        if (g2 > 1e-12) {
-          const double div = (pxx * (py * py + pz * pz) + pyy * (px * px + pz * pz) + pzz * (px * px + py * py) -
-                              2 * (px * py * pxy + px * pz * pxz + py * pz * pyz)) / (g2 * std::sqrt(g2));
-          const double K = -div;
-          const double excess = K - std::clamp(K, -cap, cap);
-          value = p0 - dt * excess * std::sqrt(g2);
-        }
-        next[a] = float(inside[c] ? std::max(value, double(keep)) : std::min(value, -double(keep)));
-      }
-    });
-    for (size_t a = 0; a < active.size(); ++a) phi[active[a]] = next[a];
-  }
-}
-
 }  // namespace
 
 int IndicatorFields::material_at(const glm::dvec3& ijk) const {
@@ -182,9 +134,6 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           phi[ci] = inside[ci] ? std::max(phi[ci], keep) : std::min(phi[ci], -keep);
       });
     }
-
-    if (options.tightening_radius > 0)
-      tighten(phi, inside, n, grid.spacing, options.tightening_radius * h, options.tightening_iterations, keep);
 
     // Into bricks: allocate those where the field is not a constant +-band.
     const glm::ivec3 blo = crop.lo / BrickField::kBrick, bhi = crop.hi / BrickField::kBrick;

@@ -5,9 +5,9 @@
 // by a Gaussian under the constraint that every voxel keeps its sign (Whitaker's constrained antialiasing): the
 // smoothing removes the staircase but can never move an interface across a voxel centre, so argmax_m f_m at every
 // voxel centre is that voxel's label, and layers one voxel thick or single-voxel components survive.
-// Then "tightening" (seed paper Sec. 3.1): a curvature flow that moves the interface only where its curvature
-// k1 + k2 exceeds 2 / r, under the same constraint; it removes the staircase residue that smoothing leaves (bumps a
-// voxel or two wide) without shrinking shapes whose curvature radius is above r.
+// Not done: the paper's "tightening" (a curvature flow limiting the curvature radius to r). Under the sign
+// constraint it measured no effect here (the constraint already pins the smoothed surface at the staircase corners),
+// so the sizing field measures curvature at the scale of a few voxels instead (sizing_field.cpp).
 // Values are physical distances (local units), clamped to +-band outside a narrow band, and stored in sparse bricks.
 #include <cstdint>
 #include <string>
@@ -21,8 +21,6 @@ struct IndicatorOptions {
   double smoothing_sigma = 1.0;  // Gaussian sigma, in voxels of the smallest spacing
   int smoothing_iterations = 2;  // smooth + constrain rounds
   double band = 4.0;             // narrow-band half-width, in voxels of the smallest spacing
-  double tightening_radius = 3.0;  // voxels; curvature (k1 + k2) above 2 / r is flowed away (0: off)
-  int tightening_iterations = 25;
 };
 
 struct IndicatorFields {
