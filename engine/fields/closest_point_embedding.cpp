@@ -147,12 +147,12 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 }
 
 bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
-                        int newton_iterations, int rounds) {
+                        int newton_iterations, int rounds, const glm::dvec3* start) {
   int m[4];
   const int count = materials_of(feature, m);
   const int k = count - 1;
   const double tol = 1e-6 * F.grid.min_spacing();
-  glm::dvec3 x = x0;
+  glm::dvec3 x = start ? *start : x0;
   bool ok = newton(F, m, k, x, newton_iterations, tol);
   for (int round = 1; ok && k < 3 && round < rounds; ++round) {
     // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
@@ -260,18 +260,32 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
   }
 
   // 3. Coarse cells: a voxel belongs to a feature's band when every material of the feature is within
-  //    band + stencil reach of it (f_m > -reach), so WENO4 stencils around any point within `band` are complete.
-  const double reach = (options.band + 1.5) * h;
-  tbb::enumerable_thread_specific<std::vector<uint64_t>> local_keys;
+  //    band + stencil reach of it (f_m > -reach), so WENO4 stencils around any point within `band` are complete:
+  //    a stencil reaches 2 fine steps beyond the query per axis, and a cell's fine points lie up to sub - 1 fine
+  //    steps from its centre; both along a diagonal at worst.
+  const double reach = options.band * h + std::sqrt(3.0) * double(options.sub + 1) / options.sub * h;
+  // Per block also whether any other material comes near enough to win over the feature's closest points; most
+  // blocks have none, and skip the restriction test below.
+  struct CellEntry {
+    uint64_t key;
+    bool exclusive;
+    bool operator<(const CellEntry& o) const { return key < o.key; }
+  };
+  tbb::enumerable_thread_specific<std::vector<CellEntry>> local_entries;
   tbb::parallel_for(tbb::blocked_range<int>(0, grid.dims.z), [&](const tbb::blocked_range<int>& r) {
-    auto& out = local_keys.local();
+    auto& out = local_entries.local();
     std::vector<int> near;
+    int around = 0;
     for (int kk = r.begin(); kk < r.end(); ++kk)
       for (int j = 0; j < grid.dims.y; ++j)
         for (int i = 0; i < grid.dims.x; ++i) {
           near.clear();
-          for (int mm = 0; mm < M; ++mm)
-            if (F.fields[size_t(mm)].at(i, j, kk) > -reach) near.push_back(mm);
+          around = 0;
+          for (int mm = 0; mm < M; ++mm) {
+            const float f = F.fields[size_t(mm)].at(i, j, kk);
+            if (f > -reach) near.push_back(mm);
+            if (f > -2.0 * reach) ++around;
+          }
           if (near.size() < 2) continue;
           const int n = int(std::min<size_t>(near.size(), 8));
           for (int mask = 1; mask < (1 << n); ++mask) {
@@ -281,13 +295,16 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
             for (int b = 0; b < n; ++b)
               if (mask & (1 << b)) ms.push_back(near[size_t(b)]);
             const auto it = feature_of.find(set_of(ms));
-            if (it != feature_of.end()) out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
+            if (it != feature_of.end())
+              out.push_back({(uint64_t(grid.index(i, j, kk)) << 16) | it->second, around == bits});
           }
         }
   });
-  std::vector<uint64_t> cells;
-  for (auto& part : local_keys) cells.insert(cells.end(), part.begin(), part.end());
-  std::sort(cells.begin(), cells.end());
+  std::vector<CellEntry> entries;
+  for (auto& part : local_entries) entries.insert(entries.end(), part.begin(), part.end());
+  std::sort(entries.begin(), entries.end());
+  std::vector<uint64_t> cells(entries.size());
+  for (size_t e = 0; e < entries.size(); ++e) cells[e] = entries[e].key;
 
   // 4. Hash table: capacity a power of two at least twice the entries; grow until every probe run is short.
   size_t capacity = 16;
@@ -324,6 +341,10 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
         const glm::dvec3 ijk = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
         const glm::dvec3 x0 = grid.local(ijk);
         glm::dvec3 cp = x0;
+        // The block's fine points are within a voxel of each other: start from the previous one's closest point
+        // (already on the feature), which saves most Newton iterations.
+        const glm::dvec3 warm = q > 0 ? glm::dvec3(glm::vec3(E.fine[b * size_t(per_block) + size_t(q - 1)])) : x0;
+        const bool warm_ok = q > 0 && E.features[fid].kind != FeatureKind::quadruple_point;
         uint32_t feature = fid;
         // Restriction: at most two escalations (interface -> curve -> point).
         for (int level = 0; level < 3; ++level) {
@@ -339,7 +360,9 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
             }
             break;
           }
-          project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds);
+          project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
+                             level == 0 && warm_ok ? &warm : nullptr);
+          if (level == 0 && entries[b].exclusive) break;
           int m[4];
           const int count = materials_of(feat, m);
           glm::dvec3 unused;

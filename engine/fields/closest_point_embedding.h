@@ -32,9 +32,9 @@ struct Feature {
 
 struct EmbeddingOptions {
   int sub = 2;              // fine points per voxel and axis (S = 1 / sub)
-  double band = 2.0;        // voxels: cells within this distance of a feature's materials get a block
+  double band = 0.75;       // voxels: lookups within this distance of a feature are complete (stencil reach added)
   int newton_iterations = 30;
-  int closest_point_rounds = 4;  // Newton + tangent re-projection rounds towards the true foot point
+  int closest_point_rounds = 3;  // Newton + tangent re-projection rounds towards the true foot point
 };
 
 struct ClosestPointEmbedding {
@@ -69,8 +69,9 @@ uint32_t embedding_hash(uint64_t key);  // shared with shaders/cp_lookup.comp (s
 ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& fields, const EmbeddingOptions& options = {});
 
 // Closest point on a feature of the smooth (Catmull-Rom) fields, by Newton projection; what the embedding stores.
-// Returns false when the projection did not converge.
+// `start` (optional) is where the first Newton solve begins, e.g. a nearby point's closest point. Returns false when
+// the projection did not converge.
 bool project_to_feature(const IndicatorFields& fields, const Feature& feature, const glm::dvec3& local, glm::dvec3& out,
-                        int newton_iterations = 30, int rounds = 4);
+                        int newton_iterations = 30, int rounds = 3, const glm::dvec3* start = nullptr);
 
 }  // namespace cpmesh::fields

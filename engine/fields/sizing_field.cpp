@@ -122,8 +122,12 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       const uint32_t fid = uint32_t(block_key[b] & 0xffff);
       const Feature& feature = E.features[fid];
       if (feature.kind != FeatureKind::interface) continue;
-      is_interface[b] = 1;
+      // Only blocks whose cell touches the surface measure it; the others (further along the normals) would
+      // repeat the same closest points.
       const glm::dvec3 p(glm::vec3(E.fine[b * size_t(per_block)]));
+      const glm::dvec3 centre = grid.local(glm::dvec3(cell_ijk(block_key[b] >> 16)));
+      if (glm::length((p - centre) / grid.spacing) > 0.87) continue;
+      is_interface[b] = 1;
       const BrickField& fa = F.fields[feature.materials[0]];
       const BrickField& fb = F.fields[feature.materials[1]];
       const glm::dvec3 g = gradient(fa, p, grid.spacing) - gradient(fb, p, grid.spacing);
@@ -136,7 +140,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
             const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
             if (!grid.inside(w.x, w.y, w.z)) continue;
             const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
-            if (nb >= 0) points.emplace_back(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
+            if (nb < 0) continue;
+            const glm::dvec3 q(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
+            if (glm::length((q - grid.local(glm::dvec3(w))) / grid.spacing) <= 0.87) points.push_back(q);
           }
       shape[b] = fitted_shape(p, glm::normalize(g), points);
       const double step = 0.25 * grid.min_spacing();
@@ -162,7 +168,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
               const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
               if (!grid.inside(w.x, w.y, w.z)) continue;
               const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
-              if (nb < 0) continue;
+              if (nb < 0 || !is_interface[size_t(nb)]) continue;
               sum += shape[size_t(nb)];
               ++n;
             }
@@ -224,30 +230,31 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
         }
   }
 
-  // 4. Every fine point: the graded cell field, trilinear over the band cells around it.
+  // 4. Every fine point: the graded cell field at its closest point (trilinear over the band cells there), so h is
+  //    constant along the normals like the closest points themselves, and a lookup anywhere in the band reads the
+  //    surface's h.
   stats.h_min = 1e300;
   double sum = 0;
-  for (size_t b = 0; b < blocks; ++b) {
-    const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
-    for (int q = 0; q < per_block; ++q) {
-      const glm::dvec3 t = glm::dvec3(q % E.sub, (q / E.sub) % E.sub, q / (E.sub * E.sub)) / double(E.sub);
-      double graded = 0, weight = 0;
-      for (int c = 0; c < 8; ++c) {
-        const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
-        const glm::ivec3 w = v + o;
-        if (!grid.inside(w.x, w.y, w.z)) continue;
-        const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
-        if (n < 0) continue;
-        const double wt = (o.x ? t.x : 1 - t.x) * (o.y ? t.y : 1 - t.y) * (o.z ? t.z : 1 - t.z);
-        graded += wt * hc[size_t(n)];
-        weight += wt;
-      }
-      const double h = weight > 0 ? graded / weight : hc[size_t(cell_slot(block_key[b] >> 16))];
-      E.fine[b * size_t(per_block) + size_t(q)].w = float(h);
-      stats.h_min = std::min(stats.h_min, h);
-      stats.h_max = std::max(stats.h_max, h);
-      sum += h;
+  for (size_t i = 0; i < E.fine.size(); ++i) {
+    const glm::dvec3 u = glm::dvec3(glm::vec3(E.fine[i])) / grid.spacing;
+    const glm::ivec3 v(glm::floor(u));
+    const glm::dvec3 t = u - glm::dvec3(v);
+    double graded = 0, weight = 0;
+    for (int c = 0; c < 8; ++c) {
+      const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
+      const glm::ivec3 w = v + o;
+      if (!grid.inside(w.x, w.y, w.z)) continue;
+      const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
+      if (n < 0) continue;
+      const double wt = (o.x ? t.x : 1 - t.x) * (o.y ? t.y : 1 - t.y) * (o.z ? t.z : 1 - t.z);
+      graded += wt * hc[size_t(n)];
+      weight += wt;
     }
+    const double h = weight > 1e-9 ? graded / weight : h_max;
+    E.fine[i].w = float(h);
+    stats.h_min = std::min(stats.h_min, h);
+    stats.h_max = std::max(stats.h_max, h);
+    sum += h;
   }
   stats.h_mean = E.fine.empty() ? 0 : sum / double(E.fine.size());
   if (E.fine.empty()) stats.h_min = 0;

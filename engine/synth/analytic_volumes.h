@@ -1,11 +1,11 @@
 #pragma once
-// Analytic test volumes built in memory (DESIGN.md "Synthetic test volumes"), with their known answers.
+// Analytic volumes built in memory (DESIGN.md "Synthetic test volumes"), with their known answers.
 #include <cmath>
 #include <vector>
 
 #include "fields/grid.h"
 
-namespace cpmesh::test {
+namespace cpmesh::synth {
 
 struct TestVolume {
   fields::Grid grid;
@@ -57,4 +57,4 @@ inline TestVolume wedge_ball_volume(int n) {
   return v;
 }
 
-}  // namespace cpmesh::test
+}  // namespace cpmesh::synth
