@@ -69,13 +69,31 @@ double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const
   catmull_rom(t.x, wx, dx);
   catmull_rom(t.y, wy, dy);
   catmull_rom(t.z, wz, dz);
+  // The 4x4x4 samples (clamped to the grid) by brick and offset, computed once per axis: this gather is the hot
+  // loop of the closest point embedding's Newton projections.
+  int bx[4], by[4], bz[4], ox[4], oy[4], oz[4];
+  for (int a = 0; a < 4; ++a) {
+    const int x = std::clamp(base.x + a - 1, 0, grid_.dims.x - 1);
+    const int y = std::clamp(base.y + a - 1, 0, grid_.dims.y - 1);
+    const int z = std::clamp(base.z + a - 1, 0, grid_.dims.z - 1);
+    bx[a] = x / kBrick;
+    ox[a] = x % kBrick;
+    by[a] = y / kBrick;
+    oy[a] = y % kBrick;
+    bz[a] = z / kBrick;
+    oz[a] = z % kBrick;
+  }
   double v = 0;
   glm::dvec3 g(0.0);
   for (int c = 0; c < 4; ++c)
     for (int b = 0; b < 4; ++b) {
+      const size_t brick_row = (size_t(bz[c]) * size_t(brick_dims_.y) + size_t(by[b])) * size_t(brick_dims_.x);
+      const int offset_row = (oz[c] * kBrick + oy[b]) * kBrick;
       double row = 0, row_dx = 0;
       for (int a = 0; a < 4; ++a) {
-        const double s = at(base.x + a - 1, base.y + b - 1, base.z + c - 1);
+        const size_t brick = brick_row + size_t(bx[a]);
+        const int32_t slot = slot_[brick];
+        const double s = slot < 0 ? constant_[brick] : data_[size_t(slot) * kBrickVoxels + size_t(offset_row + ox[a])];
         row += wx[a] * s;
         row_dx += dx[a] * s;
       }

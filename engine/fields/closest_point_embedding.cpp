@@ -151,7 +151,7 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
   int m[4];
   const int count = materials_of(feature, m);
   const int k = count - 1;
-  const double tol = 1e-6 * F.grid.min_spacing();
+  const double tol = 1e-5 * F.grid.min_spacing();
   glm::dvec3 x = start ? *start : x0;
   bool ok = newton(F, m, k, x, newton_iterations, tol);
   for (int round = 1; ok && k < 3 && round < rounds; ++round) {

@@ -1,0 +1,126 @@
+// Benchmark of the fields stage (indicator fields, closest point embedding, sizing field) on synthetic volumes, and
+// of the closest point lookup on the device against its C++ reference. Prints a table and one JSON line per volume.
+//   cpmesh-bench-fields [--device D] [--volumes wedge-ball:128,sphere:256] [--lookups 1000000]
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <random>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "fields/cp_lookup_gpu.h"
+#include "fields/fields_stage.h"
+#include "ref/cp_lookup.h"
+#include "synth/analytic_volumes.h"
+
+using namespace cpmesh;
+
+namespace {
+
+double peak_rss_mib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
+}
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Benchmark of the fields stage and the closest point lookup"};
+  std::string device;
+  std::vector<std::string> volumes = {"wedge-ball:128", "sphere:256"};
+  uint32_t lookups = 1u << 20;
+  app.add_option("--device", device, "Vulkan device index or name substring");
+  app.add_option("--volumes", volumes, "kind:size, kind = wedge-ball or sphere")->delimiter(',')->capture_default_str();
+  app.add_option("--lookups", lookups, "Closest point lookups timed on the device and in the reference")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    gpu::Context ctx(gpu::ContextOptions{device, false, false});
+    fields::CpLookup lookup(ctx);
+    std::printf("%-16s %9s %9s %9s %9s %10s %10s %9s %12s %12s %8s\n", "volume", "indic s", "embed s", "sizing s",
+                "total s", "fields MiB", "embed MiB", "rss MiB", "gpu Mlook/s", "ref Mlook/s", "max diff");
+    for (const auto& spec : volumes) {
+      const auto colon = spec.find(':');
+      const std::string kind = spec.substr(0, colon);
+      const int n = std::stoi(spec.substr(colon + 1));
+      synth::TestVolume vol;
+      if (kind == "wedge-ball")
+        vol = synth::wedge_ball_volume(n);
+      else if (kind == "sphere")
+        vol = synth::sphere_volume(n, glm::dvec3(n / 2.0 + 0.3, n / 2.0 - 0.2, n / 2.0 + 0.1), 0.4 * n);
+      else
+        throw std::runtime_error("unknown volume kind '" + kind + "' (expected wedge-ball or sphere)");
+      const auto t0 = std::chrono::steady_clock::now();
+      auto r = fields::build_fields(vol.grid, vol.labels.data());
+      const double total = seconds(t0);
+
+      // Lookup queries: jittered closest points of random blocks, each with its block's feature.
+      const auto& E = r.embedding;
+      std::mt19937 rng(5);
+      std::uniform_real_distribution<float> jitter(-0.5f, 0.5f);
+      std::vector<glm::vec4> queries(lookups);
+      std::vector<size_t> used_slots;
+      for (size_t s = 0; s < E.keys.size(); ++s)
+        if (E.keys[s] != fields::ClosestPointEmbedding::kEmpty) used_slots.push_back(s);
+      for (auto& q : queries) {
+        const size_t s = used_slots[rng() % used_slots.size()];
+        const glm::vec3 cp(E.fine[size_t(E.blocks[s]) * 8]);
+        q = glm::vec4(cp + glm::vec3(jitter(rng), jitter(rng), jitter(rng)), glm::uintBitsToFloat(uint32_t(E.keys[s] & 0xffff)));
+      }
+      std::vector<ref::CpResult> want(lookups);
+      auto tr = std::chrono::steady_clock::now();
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, lookups), [&](const tbb::blocked_range<size_t>& br) {
+        for (size_t i = br.begin(); i < br.end(); ++i)
+          want[i] = ref::cp_lookup(E, glm::vec3(queries[i]), glm::floatBitsToUint(queries[i].w));
+      });
+      const double ref_s = seconds(tr);
+      fields::GpuEmbedding ge(ctx, E);
+      gpu::Buffer<glm::vec4> qb(ctx, queries, "queries"), out(ctx, lookups, "results");
+      gpu::Buffer<uint32_t> valid(ctx, lookups, "valid");
+      double gpu_s = 1e300;
+      for (int rep = 0; rep < 3; ++rep) {
+        gpu::Sequence seq(ctx);
+        lookup.record(seq, ge, qb, out, valid, lookups);
+        const auto tg = std::chrono::steady_clock::now();
+        seq.submit_and_wait();
+        gpu_s = std::min(gpu_s, seconds(tg));
+      }
+      const auto got = out.download();
+      const auto got_valid = valid.download();
+      float worst = 0;
+      size_t mismatched_validity = 0;
+      for (uint32_t i = 0; i < lookups; ++i) {
+        mismatched_validity += bool(got_valid[i]) != want[i].valid;
+        if (want[i].valid) worst = std::max(worst, glm::length(glm::vec3(got[i]) - glm::vec3(want[i].value)));
+      }
+      const auto& rep = r.report;
+      std::printf("%-16s %9.2f %9.2f %9.2f %9.2f %10.1f %10.1f %9.0f %12.2f %12.2f %8.1e%s\n", spec.c_str(),
+                  rep.indicator_seconds, rep.embedding_seconds, rep.sizing_seconds, total,
+                  double(rep.indicator_bytes) / 1048576.0, double(rep.embedding_bytes) / 1048576.0, peak_rss_mib(),
+                  lookups / gpu_s / 1e6, lookups / ref_s / 1e6, worst, mismatched_validity ? "  VALIDITY MISMATCH" : "");
+      const nlohmann::json j = {{"benchmark", "fields"}, {"device", ctx.info().name}, {"volume", spec},
+                                {"indicator_s", rep.indicator_seconds}, {"embedding_s", rep.embedding_seconds},
+                                {"sizing_s", rep.sizing_seconds}, {"total_s", total},
+                                {"indicator_bytes", rep.indicator_bytes}, {"embedding_bytes", rep.embedding_bytes},
+                                {"blocks", E.block_count()}, {"peak_rss_mib", peak_rss_mib()},
+                                {"interfaces", rep.interfaces}, {"triple_curves", rep.triple_curves},
+                                {"quadruple_points", rep.quadruple_points}, {"lookups", lookups},
+                                {"gpu_lookups_per_s", lookups / gpu_s}, {"ref_lookups_per_s", lookups / ref_s},
+                                {"max_gpu_ref_difference", worst}, {"validity_mismatches", mismatched_validity}};
+      std::cout << j.dump() << '\n';
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "cpmesh-bench-fields: error: " << e.what() << '\n';
+    return 1;
+  }
+}
