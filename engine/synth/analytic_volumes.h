@@ -12,6 +12,9 @@ struct TestVolume {
   std::vector<uint16_t> labels;
   glm::dvec3 centre{0.0};
   std::vector<glm::dvec3> quadruple_points;  // local coordinates
+  // Wedge ball only: the geometry, for distances to the analytic triple curves.
+  double outer_radius = 0, inner_radius = 0, rotation = 0;
+  glm::dvec3 inner_centre{0.0};
 };
 
 // Label 1 inside a sphere (voxel centres closer than radius), 0 outside, in an n^3 grid of unit spacing.
@@ -51,10 +54,42 @@ inline TestVolume wedge_ball_volume(int n) {
         }
         v.labels[v.grid.index(i, j, k)] = label;
       }
+  v.outer_radius = R;
+  v.inner_radius = r;
+  v.rotation = rot;
+  v.inner_centre = inner;
   const double dz = std::sqrt(r * r - (36 + 16) * s * s);
   v.quadruple_points = {v.centre + glm::dvec3(0, 0, R), v.centre - glm::dvec3(0, 0, R),
                         glm::dvec3(v.centre.x, v.centre.y, inner.z + dz), glm::dvec3(v.centre.x, v.centre.y, inner.z - dz)};
   return v;
+}
+
+// Distance from p to the wedge ball's analytic triple curve(s) of labels a < b < c: the outer sphere's meridian on
+// the plane between two wedges (0, wedge, wedge), the vertical axis (1, 2, 3), or the circle where a wedge plane
+// cuts the inner ball (wedge, wedge, 4).
+inline double wedge_ball_curve_distance(const TestVolume& v, int a, int b, int c, const glm::dvec3& p) {
+  // The plane between wedges i and i+1 (labels 1..3, cyclic) is at angle rotation + 120 deg * i.
+  auto plane_angle = [&](int w1, int w2) {
+    const int lo = std::min(w1, w2), hi = std::max(w1, w2);
+    const int boundary = (lo == 1 && hi == 3) ? 0 : lo;  // 3|1 at 0, 1|2 at 1, 2|3 at 2
+    return v.rotation + boundary * 2.0 * M_PI / 3.0;
+  };
+  const glm::dvec3 q = p - v.centre;
+  if (a == 1 && b == 2 && c == 3) return std::sqrt(q.x * q.x + q.y * q.y);
+  const bool outer = a == 0;
+  const double th = outer ? plane_angle(b, c) : plane_angle(a, b);
+  const glm::dvec3 dir(std::cos(th), std::sin(th), 0.0), normal(-std::sin(th), std::cos(th), 0.0);
+  const double off_plane = glm::dot(q, normal);
+  if (outer) {
+    const glm::dvec2 in_plane(glm::dot(q, dir), q.z);
+    return std::sqrt(off_plane * off_plane + std::pow(glm::length(in_plane) - v.outer_radius, 2));
+  }
+  const glm::dvec3 ci = v.inner_centre - v.centre;
+  const double dc = glm::dot(ci, normal);
+  const glm::dvec3 cc = ci - dc * normal;  // the circle's centre, in the plane
+  const double rc = std::sqrt(std::max(0.0, v.inner_radius * v.inner_radius - dc * dc));
+  const glm::dvec3 pp = q - off_plane * normal;
+  return std::sqrt(off_plane * off_plane + std::pow(glm::length(pp - cc) - rc, 2));
 }
 
 }  // namespace cpmesh::synth
