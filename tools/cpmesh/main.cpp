@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   const std::vector<Command> commands = {
       add_devices_command(app, g),
       add_selftest_command(app, g),
+      add_info_command(app, g),
   };
 
   try {

@@ -1,0 +1,191 @@
+#include "io/synth_volumes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include <nlohmann/json.hpp>
+
+#include "io/atomic_file.h"
+#include "io/error.h"
+
+namespace cpmesh::io {
+
+namespace {
+
+using Vec = std::array<double, 3>;
+constexpr double pi = std::numbers::pi;
+constexpr double wedge_rotation = 0.3;  // radians: keeps the wedge planes off the grid planes
+constexpr int curve_samples = 257;
+
+Vec add(const Vec& a, const Vec& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+Vec scale(const Vec& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+double dist(const Vec& a, const Vec& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
+
+template <size_t N>
+std::array<uint16_t, N> sorted(std::array<uint16_t, N> m) {
+  std::sort(m.begin(), m.end());
+  return m;
+}
+
+struct WedgeBall {
+  Vec centre, inner;
+  double R, r;
+  uint16_t label(const Vec& p) const {
+    if (dist(p, inner) < r) return 4;
+    if (dist(p, centre) >= R) return 0;
+    double a = std::atan2(p[1] - centre[1], p[0] - centre[0]) - wedge_rotation;
+    while (a < 0) a += 2 * pi;
+    return uint16_t(1 + int(a / (2 * pi / 3)) % 3);
+  }
+};
+
+Junctions wedge_ball_junctions(const WedgeBall& w) {
+  Junctions j;
+  const double dx = w.inner[0] - w.centre[0], dy = w.inner[1] - w.centre[1], dz = w.inner[2] - w.centre[2];
+  const double half = std::sqrt(w.r * w.r - dx * dx - dy * dy);  // the axis enters the inner ball at dz +- half
+  const Vec north = add(w.centre, {0, 0, w.R}), south = add(w.centre, {0, 0, -w.R});
+  const Vec inner_top = {w.centre[0], w.centre[1], w.inner[2] + half};
+  const Vec inner_bottom = {w.centre[0], w.centre[1], w.inner[2] - half};
+  j.quadruple_points = {{{0, 1, 2, 3}, north}, {{0, 1, 2, 3}, south}, {{1, 2, 3, 4}, inner_top},
+                        {{1, 2, 3, 4}, inner_bottom}};
+  auto segment = [&](const Vec& a, const Vec& b) {
+    TripleCurve c{{1, 2, 3}, {}};
+    for (int s = 0; s < curve_samples; ++s) c.points.push_back(add(a, scale(add(b, scale(a, -1)), double(s) / (curve_samples - 1))));
+    return c;
+  };
+  j.triple_curves.push_back(segment(north, inner_top));
+  j.triple_curves.push_back(segment(inner_bottom, south));
+  // Wedge boundary b lies at angle rotation + b * 120 degrees, between wedge (b + 2) % 3 + 1 and wedge b + 1.
+  for (int b = 0; b < 3; ++b) {
+    const double theta = wedge_rotation + b * 2 * pi / 3, ct = std::cos(theta), st = std::sin(theta);
+    const uint16_t left = uint16_t((b + 2) % 3 + 1), right = uint16_t(b + 1);
+    TripleCurve outer{sorted<3>({0, left, right}), {}};
+    for (int s = 0; s < curve_samples; ++s) {
+      const double phi = pi * s / (curve_samples - 1);
+      outer.points.push_back(add(w.centre, {w.R * std::sin(phi) * ct, w.R * std::sin(phi) * st, w.R * std::cos(phi)}));
+    }
+    j.triple_curves.push_back(outer);
+    // The half-plane meets the inner sphere in the part rho >= 0 of a circle (centre a, radius rp) in (rho, z).
+    const double a = dx * ct + dy * st, perp = -dx * st + dy * ct;
+    const double rp = std::sqrt(w.r * w.r - perp * perp), psi0 = std::acos(-a / rp);
+    TripleCurve inner{sorted<3>({left, right, 4}), {}};
+    for (int s = 0; s < curve_samples; ++s) {
+      const double psi = psi0 - 2 * psi0 * s / (curve_samples - 1);
+      const double rho = std::max(0.0, a + rp * std::cos(psi)), z = dz + rp * std::sin(psi);
+      inner.points.push_back(add(w.centre, {rho * ct, rho * st, z}));
+    }
+    inner.points.front() = inner_top;
+    inner.points.back() = inner_bottom;
+    j.triple_curves.push_back(inner);
+  }
+  return j;
+}
+
+}  // namespace
+
+SynthShape parse_synth_shape(const std::string& name) {
+  if (name == "sphere") return SynthShape::sphere;
+  if (name == "wedge-ball" || name == "wedge_ball") return SynthShape::wedge_ball;
+  if (name == "slabs") return SynthShape::slabs;
+  if (name == "shells") return SynthShape::shells;
+  throw Error("field 'shape': expected sphere, wedge-ball, slabs or shells, got '" + name + "'");
+}
+
+SynthVolume make_synth_volume(const SynthOptions& o) {
+  if (o.size < 4 || o.size > 2048) throw Error("field 'size': expected 4..2048 voxels, got '" + std::to_string(o.size) + "'");
+  for (double s : o.spacing)
+    if (!(s > 0) || !std::isfinite(s)) throw Error("field 'spacing': expected positive spacings");
+  if (!(o.radius >= 0)) throw Error("field 'radius': expected a positive radius in voxels");
+  SynthVolume out;
+  LabelVolume& v = out.volume;
+  v.dims = {o.size, o.size, o.size};
+  v.spacing = o.spacing;
+  v.format = "synthetic";
+  v.file_type = ScalarType::u8;
+  v.labels.assign(size_t(v.voxel_count()), 0);
+  const double h = std::min({o.spacing[0], o.spacing[1], o.spacing[2]});
+  const double n = double(o.size);
+  // Off-grid centre (as in analytic_volumes.h) so no interface passes exactly through voxel centres.
+  const Vec centre = {(n - 1) / 2 * o.spacing[0] + 0.1 * h, (n - 1) / 2 * o.spacing[1] - 0.2 * h,
+                      (n - 1) / 2 * o.spacing[2] + 0.15 * h};
+  nlohmann::json params;
+  params["centre"] = centre;
+  std::function<uint16_t(const Vec&)> label;
+  WedgeBall w{};
+  switch (o.shape) {
+    case SynthShape::sphere: {
+      const double R = (o.radius > 0 ? o.radius : 0.35 * n) * h;
+      params["radius"] = R;
+      label = [=](const Vec& p) { return uint16_t(dist(p, centre) < R ? 1 : 0); };
+      break;
+    }
+    case SynthShape::wedge_ball: {
+      w.centre = centre;
+      w.R = (o.radius > 0 ? o.radius : 50.0 * n / 128.0) * h;
+      w.r = w.R * 18.0 / 50.0;
+      w.inner = add(centre, scale({6, 4, 5}, w.R / 50.0));
+      params["radius"] = w.R;
+      params["inner_centre"] = w.inner;
+      params["inner_radius"] = w.r;
+      params["wedge_rotation"] = wedge_rotation;
+      label = [w](const Vec& p) { return w.label(p); };
+      out.junctions = wedge_ball_junctions(w);
+      break;
+    }
+    case SynthShape::slabs: {
+      const double ez = (n - 1) * o.spacing[2], z1 = 0.3 * ez + 0.25 * h, z2 = 0.5 * ez + 0.25 * h;
+      const std::array<double, 4> bounds = {z1, z2, z2 + 2 * o.spacing[2], z2 + 3 * o.spacing[2]};
+      params["z_boundaries"] = bounds;
+      label = [=](const Vec& p) {
+        uint16_t l = 1;
+        for (double b : bounds) l = uint16_t(l + (p[2] >= b ? 1 : 0));
+        return l;
+      };
+      break;
+    }
+    case SynthShape::shells: {
+      const double R = (o.radius > 0 ? o.radius : 0.45 * n) * h;
+      const std::array<double, 5> radii = {0.35 * R, 0.55 * R, 0.55 * R + 1.5 * h, 0.8 * R, 0.8 * R + 1.0 * h};
+      params["radii"] = radii;
+      params["radius"] = R;
+      label = [=](const Vec& p) {
+        const double d = dist(p, centre);
+        if (d >= R) return uint16_t(0);
+        uint16_t l = 1;
+        for (double b : radii) l = uint16_t(l + (d >= b ? 1 : 0));
+        return uint16_t(l > 5 ? 4 : l);  // between the thin shell 5 and the outer radius: shell 4 again
+      };
+      break;
+    }
+  }
+  for (int64_t k = 0; k < o.size; ++k)
+    for (int64_t j = 0; j < o.size; ++j)
+      for (int64_t i = 0; i < o.size; ++i) v.labels[v.index(i, j, k)] = label(v.position(i, j, k));
+  params["shape"] = o.shape == SynthShape::sphere       ? "sphere"
+                    : o.shape == SynthShape::wedge_ball ? "wedge-ball"
+                    : o.shape == SynthShape::slabs      ? "slabs"
+                                                        : "shells";
+  out.description = params.dump();
+  return out;
+}
+
+void write_junctions_json(const std::string& path, const SynthVolume& s) {
+  nlohmann::json j;
+  j["units"] = "physical (voxel (i,j,k) centre at origin + (i,j,k) * spacing)";
+  j["dims"] = s.volume.dims;
+  j["spacing"] = s.volume.spacing;
+  j["origin"] = s.volume.origin;
+  j["parameters"] = nlohmann::json::parse(s.description);
+  j["quadruple_points"] = nlohmann::json::array();
+  for (const auto& q : s.junctions.quadruple_points)
+    j["quadruple_points"].push_back({{"materials", q.materials}, {"position", q.position}});
+  j["triple_curves"] = nlohmann::json::array();
+  for (const auto& c : s.junctions.triple_curves)
+    j["triple_curves"].push_back({{"materials", c.materials}, {"points", c.points}});
+  const std::string text = j.dump();
+  write_atomically(path, [&](std::ostream& out) { out << text << '\n'; });
+}
+
+}  // namespace cpmesh::io

@@ -1,0 +1,57 @@
+#pragma once
+// The synthetic test volumes of DESIGN.md with their known answers, in physical units (origin 0, voxel (i,j,k) at
+// (i,j,k) * spacing). Labels come from testing each voxel centre against the analytic shapes.
+//   sphere:     label 1 inside a ball (default radius 0.35 * size voxels), 0 outside.
+//   wedge-ball: background 0; a ball (radius 50 voxels at size 128, scaled with size) cut into wedges 1, 2, 3 by three
+//               half-planes through its vertical axis at 120 degrees; an off-centre inner ball 4 (radius 18/50 of the
+//               outer) that contains a piece of the axis and so crosses every wedge plane. 9 interfaces, 8 triple
+//               curves, 4 quadruple points. With unit spacing it equals synth::wedge_ball_volume (analytic_volumes.h).
+//   slabs:      layers along z: 1, 2, then 3 (two voxels thick), 4 (one voxel thick), 5.
+//   shells:     concentric shells around a core 1: 2, 3 (1.5 voxels thick), 4, 5 (one voxel thick), background 0.
+// Lengths given in voxels are multiplied by the smallest spacing, so shapes stay round with anisotropic spacing.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "io/volume.h"
+
+namespace cpmesh::io {
+
+enum class SynthShape { sphere, wedge_ball, slabs, shells };
+
+struct SynthOptions {
+  SynthShape shape = SynthShape::wedge_ball;
+  int64_t size = 64;                    // voxels along each axis
+  std::array<double, 3> spacing{1, 1, 1};
+  double radius = 0;                    // outer radius in voxels (sphere, wedge ball, shells); 0: the default
+};
+
+struct TripleCurve {
+  std::array<uint16_t, 3> materials;            // ascending
+  std::vector<std::array<double, 3>> points;    // a finely sampled polyline, physical units
+};
+
+struct QuadruplePoint {
+  std::array<uint16_t, 4> materials;  // ascending
+  std::array<double, 3> position;
+};
+
+struct Junctions {
+  std::vector<TripleCurve> triple_curves;
+  std::vector<QuadruplePoint> quadruple_points;
+};
+
+struct SynthVolume {
+  LabelVolume volume;
+  Junctions junctions;  // empty except for the wedge ball
+  std::string description;  // the analytic parameters, for the JSON file
+};
+
+SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells"
+SynthVolume make_synth_volume(const SynthOptions& o);
+// JSON: {"shape", "parameters", "quadruple_points": [{"materials", "position"}], "triple_curves": [{"materials",
+// "points"}]}, written atomically.
+void write_junctions_json(const std::string& path, const SynthVolume& s);
+
+}  // namespace cpmesh::io

@@ -1,0 +1,77 @@
+// `cpmesh info` and `cpmesh-synth` run as a user would: output, exit codes, and clear errors on bad input.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "cli/run_tool.h"
+
+using cpmesh::test::contains;
+using cpmesh::test::run_tool;
+namespace fs = std::filesystem;
+
+namespace {
+const std::string asset = std::string(CPMESH_SOURCE_DIR) + "/assets/wedge_ball_48.nrrd";
+
+fs::path scratch() {
+  const fs::path dir = fs::temp_directory_path() / ("cpmesh_cli_io_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+}  // namespace
+
+TEST_CASE("info on the bundled wedge ball: 5 labels and their neighbours") {
+  const auto r = run_tool("cpmesh info " + asset);
+  REQUIRE(r.exit_code == 0);
+  CHECK(contains(r.output, "48 x 48 x 48"));
+  CHECK(contains(r.output, "labels   5"));
+  // label 0 touches the wedges but never the inner ball; 4 touches only the wedges.
+  CHECK(contains(r.output, "1 2 3\n"));
+  CHECK(contains(r.output, "0 2 3 4\n"));
+  CHECK(contains(r.output, "0 1 3 4\n"));
+  CHECK(contains(r.output, "0 1 2 4\n"));
+}
+
+TEST_CASE("info on bad input: the file, what was expected, exit code 1, no crash") {
+  const auto dir = scratch();
+  const auto missing = run_tool("cpmesh info " + (dir / "nope.nrrd").string());
+  CHECK(missing.exit_code == 1);
+  CHECK(contains(missing.output, "nope.nrrd"));
+  const auto directory = run_tool("cpmesh info " + dir.string());
+  CHECK(directory.exit_code == 1);
+  CHECK(contains(directory.output, "directory"));
+  {
+    std::ofstream f(dir / "truncated.nrrd", std::ios::binary);
+    f << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n" << std::string(50, '\1');
+  }
+  const auto truncated = run_tool("cpmesh info " + (dir / "truncated.nrrd").string());
+  CHECK(truncated.exit_code == 1);
+  CHECK(contains(truncated.output, "truncated.nrrd"));
+  CHECK(contains(truncated.output, "1000"));  // the expected voxel count or byte size is named
+  {
+    std::ofstream f(dir / "float.nrrd", std::ios::binary);
+    f << "NRRD0004\ntype: float\ndimension: 3\nsizes: 1 1 1\nencoding: raw\n\n" << std::string(4, '\0');
+  }
+  const auto floats = run_tool("cpmesh info " + (dir / "float.nrrd").string());
+  CHECK(floats.exit_code == 1);
+  CHECK(contains(floats.output, "type"));
+  const auto usage = run_tool("cpmesh info");
+  CHECK(usage.exit_code != 0);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("cpmesh-synth writes a volume that info reads back, atomically") {
+  const auto dir = scratch();
+  const auto out = dir / "shells.nrrd";
+  const auto r = run_tool("cpmesh-synth shells --size 32 -o " + out.string());
+  REQUIRE(r.exit_code == 0);
+  CHECK(fs::exists(out));
+  for (const auto& e : fs::directory_iterator(dir)) CHECK(e.path().string().find(".tmp-") == std::string::npos);
+  const auto info = run_tool("cpmesh info " + out.string());
+  CHECK(info.exit_code == 0);
+  CHECK(contains(info.output, "32 x 32 x 32"));
+  const auto bad = run_tool("cpmesh-synth cube --size 32 -o " + (dir / "x.nrrd").string());
+  CHECK(bad.exit_code != 0);
+  CHECK(!fs::exists(dir / "x.nrrd"));
+  fs::remove_all(dir);
+}
