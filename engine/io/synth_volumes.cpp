@@ -110,6 +110,7 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
   // Off-grid centre (as in analytic_volumes.h) so no interface passes exactly through voxel centres.
   const Vec centre = {(n - 1) / 2 * o.spacing[0] + 0.1 * h, (n - 1) / 2 * o.spacing[1] - 0.2 * h,
                       (n - 1) / 2 * o.spacing[2] + 0.15 * h};
+  out.centre = centre;
   nlohmann::json params;
   params["centre"] = centre;
   std::function<uint16_t(const Vec&)> label;

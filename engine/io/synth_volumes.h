@@ -5,7 +5,7 @@
 //   wedge-ball: background 0; a ball (radius 50 voxels at size 128, scaled with size) cut into wedges 1, 2, 3 by three
 //               half-planes through its vertical axis at 120 degrees; an off-centre inner ball 4 (radius 18/50 of the
 //               outer) that contains a piece of the axis and so crosses every wedge plane. 9 interfaces, 8 triple
-//               curves, 4 quadruple points. With unit spacing it equals synth::wedge_ball_volume (analytic_volumes.h).
+//               curves, 4 quadruple points.
 //   slabs:      layers along z: 1, 2, then 3 (two voxels thick), 4 (one voxel thick), 5.
 //   shells:     concentric shells around a core 1: 2, 3 (1.5 voxels thick), 4, 5 (one voxel thick), background 0.
 // Lengths given in voxels are multiplied by the smallest spacing, so shapes stay round with anisotropic spacing.
@@ -44,6 +44,7 @@ struct Junctions {
 
 struct SynthVolume {
   LabelVolume volume;
+  std::array<double, 3> centre{0, 0, 0};  // of the sphere, wedge ball or shells (physical)
   Junctions junctions;  // empty except for the wedge ball
   std::string description;  // the analytic parameters, for the JSON file
 };

@@ -8,7 +8,7 @@
 
 #include "fields/closest_point_embedding.h"
 #include "ref/cp_lookup.h"
-#include "synth/analytic_volumes.h"
+#include "fields_volumes.h"
 
 using namespace cpmesh;
 using namespace cpmesh::fields;
@@ -26,7 +26,7 @@ TEST_CASE("WENO4 reproduces quadratics exactly and does not overshoot a step") {
 }
 
 TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and near the true sphere") {
-  const auto vol = synth::sphere_volume(56, {27.3, 27.6, 27.1}, 20.0);
+  const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
   const auto fields = build_indicator_fields(vol.grid, vol.labels.data());
   const auto t0 = std::chrono::steady_clock::now();
   const auto E = build_closest_point_embedding(fields);
@@ -68,7 +68,7 @@ TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and 
 }
 
 TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near the analytic ones") {
-  const auto wb = synth::wedge_ball_volume(48);
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
   const auto fields = build_indicator_fields(wb.grid, wb.labels.data());
   const auto E = build_closest_point_embedding(fields);
   int interfaces = 0, curves = 0, curve_components = 0;
@@ -89,8 +89,8 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
     if (f.kind != FeatureKind::triple_curve) continue;
     for (int q = 0; q < 8; ++q) {
       const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * 8 + size_t(q)]));
-      const double d = synth::wedge_ball_curve_distance(wb, fields.labels[f.materials[0]], fields.labels[f.materials[1]],
-                                                        fields.labels[f.materials[2]], cp);
+      const double d = test::distance_to_curve(
+          wb.junctions, {fields.labels[f.materials[0]], fields.labels[f.materials[1]], fields.labels[f.materials[2]]}, cp);
       worst_curve = std::max(worst_curve, d);
       sum_curve += d;
       ++n_curve;
@@ -104,7 +104,9 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
   CHECK(sum_curve / double(n_curve) < 0.65);
   CHECK(worst_curve < 0.8);
   REQUIRE(E.quadruple_points.size() == 4);
-  for (const auto& want : wb.quadruple_points) {
+  REQUIRE(wb.junctions.quadruple_points.size() == 4);
+  for (const auto& q : wb.junctions.quadruple_points) {
+    const glm::dvec3 want(q.position[0], q.position[1], q.position[2]);
     double best = 1e9;
     for (const auto& qp : E.quadruple_points) best = std::min(best, glm::length(qp.position - want));
     MESSAGE("quadruple point error " << best << " voxel");

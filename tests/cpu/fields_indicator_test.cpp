@@ -7,19 +7,11 @@
 
 #include "fields/distance_transform.h"
 #include "fields/indicator_fields.h"
+#include "fields_volumes.h"
 
 using namespace cpmesh::fields;
 
 namespace {
-
-std::vector<uint16_t> sphere_labels(const Grid& g, const glm::dvec3& centre, double radius) {
-  std::vector<uint16_t> labels(g.voxel_count());
-  for (int k = 0; k < g.dims.z; ++k)
-    for (int j = 0; j < g.dims.y; ++j)
-      for (int i = 0; i < g.dims.x; ++i)
-        labels[g.index(i, j, k)] = glm::length(g.local(glm::dvec3(i, j, k)) - centre) < radius ? 1 : 0;
-  return labels;
-}
 
 // Zero of f(t) on [a, b] by bisection, f(a) and f(b) of opposite signs.
 template <class F>
@@ -73,10 +65,11 @@ TEST_CASE("squared distance transform matches brute force, anisotropic spacing")
 }
 
 TEST_CASE("sphere R = 20: the interface lies within 0.5 voxel of the true sphere and labels are kept") {
-  Grid g{{56, 56, 56}, {1, 1, 1}, {0, 0, 0}};
-  const glm::dvec3 c(27.3, 27.6, 27.1);
+  const auto vol = cpmesh::test::make_volume(cpmesh::io::SynthShape::sphere, 56, 20.0);
+  const Grid& g = vol.grid;
+  const glm::dvec3 c = vol.centre;
   const double R = 20.0;
-  const auto labels = sphere_labels(g, c, R);
+  const auto& labels = vol.labels;
   const auto fields = build_indicator_fields(g, labels.data());
   REQUIRE(fields.labels == std::vector<uint16_t>{0, 1});
   // argmax at every voxel centre is that voxel's label.
@@ -111,8 +104,9 @@ TEST_CASE("sphere R = 20: the interface lies within 0.5 voxel of the true sphere
 }
 
 TEST_CASE("fields are stored in a narrow band: memory grows with the surface, not the volume") {
-  Grid g{{128, 128, 128}, {1, 1, 1}, {0, 0, 0}};
-  const auto labels = sphere_labels(g, glm::dvec3(64.2, 63.7, 64.5), 20.0);
+  const auto vol = cpmesh::test::make_volume(cpmesh::io::SynthShape::sphere, 128, 20.0);
+  const Grid& g = vol.grid;
+  const auto& labels = vol.labels;
   const auto fields = build_indicator_fields(g, labels.data());
   const double dense = 2.0 * double(g.voxel_count()) * sizeof(float);
   MESSAGE("sparse " << fields.memory_bytes() << " bytes vs dense " << dense);

@@ -2,13 +2,13 @@
 #include <doctest/doctest.h>
 
 #include "fields/sizing_field.h"
-#include "synth/analytic_volumes.h"
+#include "fields_volumes.h"
 
 using namespace cpmesh;
 using namespace cpmesh::fields;
 
 TEST_CASE("sphere R = 20: h on the surface is density x R within 15%") {
-  const auto vol = synth::sphere_volume(56, {27.3, 27.6, 27.1}, 20.0);
+  const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
   const auto F = build_indicator_fields(vol.grid, vol.labels.data());
   auto E = build_closest_point_embedding(F);
   SizingOptions opt;

@@ -6,7 +6,7 @@
 #include "fields/cp_lookup_gpu.h"
 #include "gpu_fixture.h"
 #include "ref/cp_lookup.h"
-#include "synth/analytic_volumes.h"
+#include "fields_volumes.h"
 
 using namespace cpmesh;
 using cpmesh::test::GpuFixture;
@@ -41,7 +41,7 @@ void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const st
 }  // namespace
 
 TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: sphere") {
-  const auto vol = synth::sphere_volume(48, {23.4, 23.7, 23.2}, 16.0);
+  const auto vol = test::make_volume(io::SynthShape::sphere, 48, 16.0);
   const auto F = fields::build_indicator_fields(vol.grid, vol.labels.data());
   const auto E = fields::build_closest_point_embedding(F);
   std::mt19937 rng(11);
@@ -57,7 +57,7 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: s
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: wedge ball, every feature") {
-  const auto wb = synth::wedge_ball_volume(40);
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 40);
   const auto F = fields::build_indicator_fields(wb.grid, wb.labels.data());
   const auto E = fields::build_closest_point_embedding(F);
   std::mt19937 rng(12);

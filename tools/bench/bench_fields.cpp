@@ -1,6 +1,6 @@
 // Benchmark of the fields stage (indicator fields, closest point embedding, sizing field) on synthetic volumes, and
 // of the closest point lookup on the device against its C++ reference. Prints a table and one JSON line per volume.
-//   cpmesh-bench-fields [--device D] [--volumes wedge-ball:128,sphere:256] [--lookups 1000000]
+//   cpmesh-bench-fields [--device D] [--volumes wedge-ball:128,shells:256] [--lookups 1048576]
 #include <sys/resource.h>
 
 #include <chrono>
@@ -16,7 +16,8 @@
 #include "fields/cp_lookup_gpu.h"
 #include "fields/fields_stage.h"
 #include "ref/cp_lookup.h"
-#include "synth/analytic_volumes.h"
+#include "fields/volume_grid.h"
+#include "io/synth_volumes.h"
 
 using namespace cpmesh;
 
@@ -37,10 +38,10 @@ double seconds(std::chrono::steady_clock::time_point t0) {
 int main(int argc, char** argv) {
   CLI::App app{"Benchmark of the fields stage and the closest point lookup"};
   std::string device;
-  std::vector<std::string> volumes = {"wedge-ball:128", "sphere:256"};
+  std::vector<std::string> volumes = {"wedge-ball:128", "shells:256"};
   uint32_t lookups = 1u << 20;
   app.add_option("--device", device, "Vulkan device index or name substring");
-  app.add_option("--volumes", volumes, "kind:size, kind = wedge-ball or sphere")->delimiter(',')->capture_default_str();
+  app.add_option("--volumes", volumes, "shape:size, shape = sphere, wedge-ball, slabs or shells")->delimiter(',')->capture_default_str();
   app.add_option("--lookups", lookups, "Closest point lookups timed on the device and in the reference")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -52,15 +53,12 @@ int main(int argc, char** argv) {
       const auto colon = spec.find(':');
       const std::string kind = spec.substr(0, colon);
       const int n = std::stoi(spec.substr(colon + 1));
-      synth::TestVolume vol;
-      if (kind == "wedge-ball")
-        vol = synth::wedge_ball_volume(n);
-      else if (kind == "sphere")
-        vol = synth::sphere_volume(n, glm::dvec3(n / 2.0 + 0.3, n / 2.0 - 0.2, n / 2.0 + 0.1), 0.4 * n);
-      else
-        throw std::runtime_error("unknown volume kind '" + kind + "' (expected wedge-ball or sphere)");
+      io::SynthOptions so;
+      so.shape = io::parse_synth_shape(kind);
+      so.size = n;
+      const auto vol = io::make_synth_volume(so);
       const auto t0 = std::chrono::steady_clock::now();
-      auto r = fields::build_fields(vol.grid, vol.labels.data());
+      auto r = fields::build_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
       const double total = seconds(t0);
 
       // Lookup queries: jittered closest points of random blocks, each with its block's feature.

@@ -1,0 +1,45 @@
+#pragma once
+// Synthetic volumes (io::make_synth_volume, the generator behind cpmesh-synth) as the fields see them, and distances
+// to their analytic junctions.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "fields/volume_grid.h"
+#include "io/synth_volumes.h"
+
+namespace cpmesh::test {
+
+struct FieldsVolume {
+  fields::Grid grid;
+  std::vector<uint16_t> labels;
+  glm::dvec3 centre{0.0};
+  io::Junctions junctions;
+};
+
+inline FieldsVolume make_volume(io::SynthShape shape, int size, double radius = 0) {
+  io::SynthOptions o;
+  o.shape = shape;
+  o.size = size;
+  o.radius = radius;
+  auto s = io::make_synth_volume(o);
+  return {fields::grid_of(s.volume), std::move(s.volume.labels), glm::dvec3(s.centre[0], s.centre[1], s.centre[2]),
+          std::move(s.junctions)};
+}
+
+// Distance from p to the analytic triple curve(s) of the given (ascending) labels: polyline segments.
+inline double distance_to_curve(const io::Junctions& j, const std::array<uint16_t, 3>& materials, const glm::dvec3& p) {
+  double best = 1e300;
+  for (const auto& c : j.triple_curves) {
+    if (c.materials != materials) continue;
+    for (size_t i = 0; i + 1 < c.points.size(); ++i) {
+      const glm::dvec3 a(c.points[i][0], c.points[i][1], c.points[i][2]);
+      const glm::dvec3 b(c.points[i + 1][0], c.points[i + 1][1], c.points[i + 1][2]);
+      const double t = std::clamp(glm::dot(p - a, b - a) / std::max(glm::dot(b - a, b - a), 1e-30), 0.0, 1.0);
+      best = std::min(best, glm::length(p - (a + t * (b - a))));
+    }
+  }
+  return best;
+}
+
+}  // namespace cpmesh::test
