@@ -17,20 +17,28 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local, const glm::dve
   return g / spacing;
 }
 
-// Distance from p along the normal into material m to where f_m stops growing (its ridge, the medial axis). A ridge
-// farther than the stored band cannot be seen and does not limit h (infinity).
-double ridge_distance(const BrickField& f, const glm::dvec3& p, const glm::dvec3& spacing, double band, double step) {
+// Half the thickness of material m at p: the walk along the inward normal until it leaves m again. Near a
+// junction the medial axis of m starts at the junction curve itself, so "distance to where f_m stops growing" would
+// drive h to zero along every triple curve; half the thickness along the normal measures thin parts (a layer of
+// thickness t gives t/2, the distance to its medial plane) without that. Thicker than the stored band can show:
+// infinity (does not limit h).
+double half_thickness(const BrickField& f, const glm::dvec3& p, const glm::dvec3& spacing, double band, double step) {
   const glm::dvec3 g = gradient(f, p, spacing);
   const double len = glm::length(g);
   constexpr double none = 1e300;
   if (len < 1e-12) return none;
   const glm::dvec3 n = g / len;  // into the material
-  double prev = f.sample_cubic(p / spacing);
-  for (double t = step; t <= band; t += step) {
+  for (double t = step; t <= 2.0 * band; t += step) {
     const double v = f.sample_cubic((p + t * n) / spacing);
-    if (v >= band * 0.999) return none;  // reached the clamped interior: no ridge within the band
-    if (v <= prev) return t - 0.5 * step;
-    prev = v;
+    if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
+    if (v < 0) {
+      // A thin part's far side faces back (its normal opposes ours); a boundary met at an angle is the next patch
+      // of a junction crease, which is sampled by the junction's own particles and does not make the part thin.
+      const glm::dvec3 exit = gradient(f, p + t * n, spacing);
+      const double exit_len = glm::length(exit);
+      if (exit_len > 1e-12 && glm::dot(exit / exit_len, n) < -0.5) return 0.5 * (t - 0.5 * step);
+      return none;
+    }
   }
   return none;
 }
@@ -112,7 +120,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     if (E.keys[slot] != ClosestPointEmbedding::kEmpty) block_key[E.blocks[slot]] = E.keys[slot];
 
   // 1. Per interface block: the largest principal curvature, fitted to the closest points of the same interface's
-  //    blocks within two cells, and the distances to the ridges (medial axes) of its two materials.
+  //    blocks within two cells, and the half thicknesses of its two materials along the normal (distance to a thin part's medial surface).
   std::vector<glm::dmat3> shape(blocks, glm::dmat3(0.0));
   std::vector<double> ridge(blocks, 1e300);
   std::vector<uint8_t> is_interface(blocks, 0);
@@ -146,7 +154,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
           }
       shape[b] = fitted_shape(p, glm::normalize(g), points);
       const double step = 0.25 * grid.min_spacing();
-      ridge[b] = std::min(ridge_distance(fa, p, grid.spacing, F.band, step), ridge_distance(fb, p, grid.spacing, F.band, step));
+      ridge[b] = std::min(half_thickness(fa, p, grid.spacing, F.band, step), half_thickness(fb, p, grid.spacing, F.band, step));
     }
   });
 

@@ -2,6 +2,8 @@
 // The meshes cpmesh outputs, in physical units.
 #include <array>
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace cpmesh::io {
@@ -15,6 +17,8 @@ struct TriangleMesh {
   std::vector<std::array<uint32_t, 3>> triangles;
   std::vector<std::array<uint16_t, 2>> triangle_pair;  // one per triangle (may be empty: then written as 0,0)
   std::vector<uint8_t> vertex_feature;                 // one per vertex, a VertexFeature (may be empty: interface)
+  // Extra per-vertex values (sizing, energy, feature id, ...), written by the VTP writer as named arrays.
+  std::vector<std::pair<std::string, std::vector<float>>> vertex_scalars;
 };
 
 // Tetrahedra with a material each, plus the boundary/interface triangles with their material pairs.

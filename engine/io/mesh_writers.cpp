@@ -188,6 +188,12 @@ void write_vtp(const std::string& path, const TriangleMesh& m) {
     std::vector<size_t> vids(m.vertices.size());
     for (size_t v = 0; v < vids.size(); ++v) vids[v] = v;
     vtk_array(out, "UInt8", "feature", 1, vids, [&](size_t v) { out << int(feature_of(m, v)); });
+    for (const auto& [name, values] : m.vertex_scalars) {
+      if (values.size() != m.vertices.size())
+        fail(path, "vertex array '" + name + "' has " + std::to_string(values.size()) + " values for " +
+                       std::to_string(m.vertices.size()) + " vertices");
+      vtk_array(out, "Float32", name.c_str(), 1, vids, [&](size_t v) { out << values[v]; });
+    }
     out << "      </PointData>\n    </Piece>\n  </PolyData>\n</VTKFile>\n";
   });
 }

@@ -75,3 +75,20 @@ TEST_CASE("cpmesh-synth writes a volume that info reads back, atomically") {
   CHECK(!fs::exists(dir / "x.nrrd"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("fields on the bundled wedge ball: features found, files written, errors clear") {
+  const auto dir = scratch();
+  const auto out = dir / "fields";
+  const auto r = run_tool("cpmesh fields " + asset + " -o " + out.string());
+  REQUIRE(r.exit_code == 0);
+  CHECK(contains(r.output, "5 materials, 9 interfaces, 8 triple curves, 4 quadruple points"));
+  for (const char* f : {"indicator_0.nrrd", "indicator_4.nrrd", "sizing.nrrd", "embedding.vtp", "fields.json"})
+    CHECK(fs::exists(out / f));
+  const auto info = run_tool("cpmesh info " + (out / "sizing.nrrd").string());
+  CHECK(info.exit_code == 1);  // a float field is not a label volume: refused with a message
+  CHECK(contains(info.output, "sizing.nrrd"));
+  const auto bad = run_tool("cpmesh fields " + (dir / "missing.nrrd").string() + " -o " + out.string());
+  CHECK(bad.exit_code == 1);
+  CHECK(contains(bad.output, "missing.nrrd"));
+  fs::remove_all(dir);
+}

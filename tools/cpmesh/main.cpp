@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
       add_devices_command(app, g),
       add_selftest_command(app, g),
       add_info_command(app, g),
+      add_fields_command(app, g),
   };
 
   try {
