@@ -66,7 +66,9 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     s->ctx = &ctx;
     ctx.note_allocation(req.size);
     const auto flags = ctx.physical_device().getMemoryProperties().memoryTypes[type].propertyFlags;
-    if ((flags & M::eHostVisible) && (flags & M::eHostCoherent)) s->mapped = s->memory.mapMemory(0, VK_WHOLE_SIZE);
+    const bool map = (flags & M::eHostVisible) && (flags & M::eHostCoherent) &&
+                     (use == MemoryUse::readback || !ctx.force_staging());
+    if (map) s->mapped = s->memory.mapMemory(0, VK_WHOLE_SIZE);
   });
   s_ = std::move(s);
 }

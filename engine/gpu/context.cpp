@@ -259,6 +259,7 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
   });
 
   memory_properties_ = physical_device_.getMemoryProperties();
+  force_staging_ = options.force_staging;
   // Unified when some memory type is device-local and host-visible in a heap as large as the largest device-local heap
   // (so not a 256 MiB BAR window).
   uint64_t largest_local = 0;
@@ -270,7 +271,7 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
   for (uint32_t i = 0; i < memory_properties_.memoryTypeCount; ++i) {
     const auto& t = memory_properties_.memoryTypes[i];
     if ((t.propertyFlags & both) == both && memory_properties_.memoryHeaps[t.heapIndex].size >= largest_local)
-      unified_memory_ = true;
+      unified_memory_ = !force_staging_;
   }
 }
 

@@ -59,6 +59,8 @@ struct ContextOptions {
   bool validation = false;  // enable VK_LAYER_KHRONOS_validation (also CPMESH_VALIDATION=1); errors are counted
   bool profile = false;     // timestamp every dispatch (where the device supports it) into Context::profile()
   uint32_t max_workgroups_x = 0;  // 0 = the device's limit; tests lower it to exercise the 2-D dispatch split cheaply
+  bool force_staging = false;     // never map device buffers: upload/download through staging copies, as on a
+                                  // discrete GPU without resizable BAR (tests use it to cover that path on lavapipe)
 };
 
 // Per-kernel time from timestamp queries, accumulated over every submission.
@@ -101,6 +103,7 @@ class Context {
   // True when device-local memory is also host-visible on this device (CPU drivers, integrated GPUs, resizable BAR):
   // buffers are then mapped directly and no staging copy is needed.
   bool unified_memory() const { return unified_memory_; }
+  bool force_staging() const { return force_staging_; }
 
   const vk::raii::Device& device() const { return device_; }
   const vk::raii::Queue& queue() const { return queue_; }
@@ -116,6 +119,7 @@ class Context {
   bool validation_enabled_ = false;
   bool profiling_ = false;
   bool unified_memory_ = false;
+  bool force_staging_ = false;
   uint32_t queue_family_ = 0;
   uint32_t timestamp_valid_bits_ = 0;
   vk::PhysicalDeviceMemoryProperties memory_properties_;

@@ -171,3 +171,21 @@ TEST_CASE("the validation layers are on in the test suites and their errors are 
   CHECK(checked.validation_error_count() >= 1);
   CHECK(checked.validation_errors().front().find("maxSets") != std::string::npos);
 }
+
+TEST_CASE("the staging path (device memory that is not mapped) uploads, downloads and computes correctly") {
+  gpu::Context staged(gpu::ContextOptions{"", true, false, 0, true});
+  REQUIRE_FALSE(staged.unified_memory());
+  const auto data = test::random_u32(70001, 21, 1000);
+  gpu::Buffer<uint32_t> src(staged, data, "staged src"), dst(staged, data.size(), "staged dst");
+  CHECK(src.download() == data);
+  std::vector<uint32_t> part = {7, 8, 9};
+  src.upload(part, 500);
+  CHECK(src.download(499, 5) == std::vector<uint32_t>{data[499], 7, 8, 9, data[503]});
+  src.upload(data);
+  gpu::Scan scan(staged);
+  gpu::Sequence seq(staged);
+  scan.record(seq, src, dst, uint32_t(data.size()));
+  seq.submit_and_wait();
+  CHECK(dst.download() == ref::exclusive_scan(data));
+  CHECK(staged.validation_error_count() == 0);
+}
