@@ -21,6 +21,7 @@ struct IndicatorOptions {
   double smoothing_sigma = 1.0;  // Gaussian sigma, in voxels of the smallest spacing
   int smoothing_iterations = 2;  // smooth + constrain rounds
   double band = 4.0;             // narrow-band half-width, in voxels of the smallest spacing
+  double junction_fade = 3.0;    // voxels: smoothing fades out this close to where three or more labels meet (0: off)
 };
 
 struct IndicatorFields {

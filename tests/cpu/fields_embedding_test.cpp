@@ -98,10 +98,9 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
   }
   MESSAGE("triple-curve closest points: distance to the analytic curves mean " << sum_curve / double(n_curve)
                                                                               << ", max " << worst_curve << " voxel");
-  // Issue 5 asks for 0.75 voxel at most. Measured 0.77 here: independent smoothing of each material's distance
-  // field moves the outer (0, wedge, wedge) curves about 0.6 voxel into the ball. Held to what is reached, so a
-  // regression shows; tighten to 0.75 when the junction bias is fixed.
-  CHECK(sum_curve / double(n_curve) < 0.65);
+  // Issue 5 asks for 0.75 voxel at most; measured mean 0.33, max 0.77 (the staircase of three labels near a curve,
+  // where smoothing is faded out). Held to what is reached, so a regression shows.
+  CHECK(sum_curve / double(n_curve) < 0.45);
   CHECK(worst_curve < 0.8);
   REQUIRE(E.quadruple_points.size() == 4);
   REQUIRE(wb.junctions.quadruple_points.size() == 4);
@@ -110,6 +109,6 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
     double best = 1e9;
     for (const auto& qp : E.quadruple_points) best = std::min(best, glm::length(qp.position - want));
     MESSAGE("quadruple point error " << best << " voxel");
-    CHECK(best < 1.0);
+    CHECK(best < 0.5);  // issue 5 asks for 1 voxel; 0.15 to 0.21 measured
   }
 }
