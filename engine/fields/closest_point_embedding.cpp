@@ -4,6 +4,8 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <stdexcept>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -264,6 +266,11 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
   //    a stencil reaches 2 fine steps beyond the query per axis, and a cell's fine points lie up to sub - 1 fine
   //    steps from its centre; both along a diagonal at worst.
   const double reach = options.band * h + std::sqrt(3.0) * double(options.sub + 1) / options.sub * h;
+  if (reach >= 0.95 * F.band)
+    throw std::invalid_argument("closest point embedding: band " + std::to_string(options.band) + " voxels plus the " +
+                                "WENO4 stencil reach needs indicator fields stored " + std::to_string(reach / h) +
+                                " voxels deep, but their band is " + std::to_string(F.band / h) +
+                                " voxels; raise the indicator band or use more subcells");
   // Per block also whether any other material comes near enough to win over the feature's closest points; most
   // blocks have none, and skip the restriction test below.
   struct CellEntry {

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <random>
@@ -41,8 +42,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> volumes = {"wedge-ball:128", "shells:256"};
   uint32_t lookups = 1u << 20;
   app.add_option("--device", device, "Vulkan device index or name substring");
-  app.add_option("--volumes", volumes, "shape:size, shape = sphere, wedge-ball, slabs or shells")->delimiter(',')->capture_default_str();
+  app.add_option("--volumes", volumes, "shape:size, shape = sphere, wedge-ball, slabs or shells; or onion:size:labels (concentric shells)")->delimiter(',')->capture_default_str();
   app.add_option("--lookups", lookups, "Closest point lookups timed on the device and in the reference")->capture_default_str();
+  bool indicator_only = false;
+  app.add_flag("--indicator-only", indicator_only, "Only the indicator fields (memory check for large volumes)");
   CLI11_PARSE(app, argc, argv);
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, false});
@@ -53,10 +56,38 @@ int main(int argc, char** argv) {
       const auto colon = spec.find(':');
       const std::string kind = spec.substr(0, colon);
       const int n = std::stoi(spec.substr(colon + 1));
-      io::SynthOptions so;
-      so.shape = io::parse_synth_shape(kind);
-      so.size = n;
-      const auto vol = io::make_synth_volume(so);
+      io::SynthVolume vol;
+      if (kind.rfind("onion", 0) == 0) {
+        // Memory check with many labels: concentric shells onion:SIZE:LABELS (labels - 1 spheres, evenly spaced radii).
+        const auto second = spec.find(':', colon + 1);
+        const int labels = second == std::string::npos ? 10 : std::stoi(spec.substr(second + 1));
+        vol.volume.dims = {n, n, n};
+        vol.volume.labels.resize(size_t(n) * n * n);
+        const double c = (n - 1) / 2.0 + 0.13, rmax = 0.47 * n;
+        for (int k = 0; k < n; ++k)
+          for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+              const double r = std::sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c));
+              vol.volume.labels[(size_t(k) * n + j) * n + i] = uint16_t(r >= rmax ? 0 : labels - 1 - int(r / rmax * (labels - 1)));
+            }
+      } else {
+        io::SynthOptions so;
+        so.shape = io::parse_synth_shape(kind);
+        so.size = n;
+        vol = io::make_synth_volume(so);
+      }
+      if (indicator_only) {
+        const auto ti = std::chrono::steady_clock::now();
+        const auto F = fields::build_indicator_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
+        const double s = seconds(ti);
+        std::printf("%-16s indicator fields of %zu materials: %.2f s, %.1f MiB stored (dense would be %.1f MiB), peak RSS %.0f MiB\n",
+                    spec.c_str(), F.material_count(), s, double(F.memory_bytes()) / 1048576.0,
+                    double(F.material_count()) * double(vol.volume.labels.size()) * 4.0 / 1048576.0, peak_rss_mib());
+        std::cout << nlohmann::json{{"benchmark", "indicator_fields"}, {"volume", spec}, {"materials", F.material_count()},
+                                    {"seconds", s}, {"bytes", F.memory_bytes()}, {"peak_rss_mib", peak_rss_mib()}}.dump()
+                  << '\n';
+        continue;
+      }
       const auto t0 = std::chrono::steady_clock::now();
       auto r = fields::build_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
       const double total = seconds(t0);
