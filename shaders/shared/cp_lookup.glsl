@@ -1,7 +1,9 @@
 // Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
 // Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader:
-//   buffers  cp_keys (uvec2[], the hash table's keys: low, high word), cp_blocks (uint[]), cp_fine (vec4[])
-//   and the values CP_DIMS (ivec3), CP_SUB (int), CP_SPACING (vec3), CP_MASK (uint, table size - 1).
+//   buffers  cp_keys (uvec2[], the hash table's keys: low, high word), cp_blocks (uint[]), cp_fine0..3 (vec4[], the
+//            fine points split in chunks of CP_CHUNK_BLOCKS blocks: fields::GpuEmbedding)
+//   and the values CP_DIMS (ivec3), CP_SUB (int), CP_SPACING (vec3), CP_MASK (uint, table size - 1),
+//   CP_CHUNK_BLOCKS (uint).
 // Loops: 64 stencil points x at most CP_MAX_PROBES probes (2048 iterations per call, far below lavapipe's limit).
 #ifndef CPMESH_CP_LOOKUP_GLSL
 #define CPMESH_CP_LOOKUP_GLSL
@@ -44,6 +46,15 @@ float cp_weno4(float f0, float f1, float f2, float f3, float t) {  // ref::weno4
   return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
 }
 
+vec4 cp_fine_point(uint block, uint index_in_block) {
+  const uint chunk = block / CP_CHUNK_BLOCKS;
+  const uint i = (block - chunk * CP_CHUNK_BLOCKS) * uint(CP_SUB * CP_SUB * CP_SUB) + index_in_block;
+  if (chunk == 0) return cp_fine0[i];
+  if (chunk == 1) return cp_fine1[i];
+  if (chunk == 2) return cp_fine2[i];
+  return cp_fine3[i];
+}
+
 vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
   return vec4(cp_weno4(f0.x, f1.x, f2.x, f3.x, t), cp_weno4(f0.y, f1.y, f2.y, f3.y, t),
               cp_weno4(f0.z, f1.z, f2.z, f3.z, t), cp_weno4(f0.w, f1.w, f2.w, f3.w, t));
@@ -71,7 +82,7 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
         const uint cell_index = uint((cell.z * CP_DIMS.y + cell.y) * CP_DIMS.x + cell.x);
         const int block = cp_find_block(cell_index, feature);
         if (block < 0) return vec4(local_pos, 0.0);
-        v[x] = cp_fine[uint(block) * uint(CP_SUB * CP_SUB * CP_SUB) + uint((s.z * CP_SUB + s.y) * CP_SUB + s.x)];
+        v[x] = cp_fine_point(uint(block), uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
       }
       vx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
     }

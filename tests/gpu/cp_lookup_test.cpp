@@ -13,8 +13,9 @@ using cpmesh::test::GpuFixture;
 
 namespace {
 
-void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& queries) {
-  fields::GpuEmbedding ge(ctx, E);
+void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& queries,
+             uint64_t max_chunk_bytes = 0) {
+  fields::GpuEmbedding ge(ctx, E, max_chunk_bytes);
   fields::CpLookup lookup(ctx);
   const uint32_t n = uint32_t(queries.size());
   gpu::Buffer<glm::vec4> q(ctx, queries, "queries"), results(ctx, n, "results");
@@ -72,4 +73,8 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: w
   }
   REQUIRE(queries.size() > 1000);
   compare(ctx, E, queries);
+  // The fine points split over all four chunk buffers give the same answers.
+  const uint64_t chunk = uint64_t((E.block_count() + 3) / 4) * 8 * sizeof(glm::vec4);
+  compare(ctx, E, queries, chunk);
+  CHECK_THROWS_WITH_AS(fields::GpuEmbedding(ctx, E, chunk / 4), doctest::Contains("blocks"), gpu::Error);
 }

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <iostream>
 #include <random>
@@ -112,24 +113,28 @@ int main(int argc, char** argv) {
           want[i] = ref::cp_lookup(E, glm::vec3(queries[i]), glm::floatBitsToUint(queries[i].w));
       });
       const double ref_s = seconds(tr);
-      fields::GpuEmbedding ge(ctx, E);
-      gpu::Buffer<glm::vec4> qb(ctx, queries, "queries"), out(ctx, lookups, "results");
-      gpu::Buffer<uint32_t> valid(ctx, lookups, "valid");
-      double gpu_s = 1e300;
-      for (int rep = 0; rep < 3; ++rep) {
-        gpu::Sequence seq(ctx);
-        lookup.record(seq, ge, qb, out, valid, lookups);
-        const auto tg = std::chrono::steady_clock::now();
-        seq.submit_and_wait();
-        gpu_s = std::min(gpu_s, seconds(tg));
-      }
-      const auto got = out.download();
-      const auto got_valid = valid.download();
+      double gpu_s = std::numeric_limits<double>::infinity();
       float worst = 0;
       size_t mismatched_validity = 0;
-      for (uint32_t i = 0; i < lookups; ++i) {
-        mismatched_validity += bool(got_valid[i]) != want[i].valid;
-        if (want[i].valid) worst = std::max(worst, glm::length(glm::vec3(got[i]) - glm::vec3(want[i].value)));
+      try {  // an embedding larger than one storage-buffer binding cannot be uploaded (yet): report, keep the CPU rows
+        fields::GpuEmbedding ge(ctx, E);
+        gpu::Buffer<glm::vec4> qb(ctx, queries, "queries"), out(ctx, lookups, "results");
+        gpu::Buffer<uint32_t> valid(ctx, lookups, "valid");
+        for (int rep = 0; rep < 3; ++rep) {
+          gpu::Sequence seq(ctx);
+          lookup.record(seq, ge, qb, out, valid, lookups);
+          const auto tg = std::chrono::steady_clock::now();
+          seq.submit_and_wait();
+          gpu_s = std::min(gpu_s, seconds(tg));
+        }
+        const auto got = out.download();
+        const auto got_valid = valid.download();
+        for (uint32_t i = 0; i < lookups; ++i) {
+          mismatched_validity += bool(got_valid[i]) != want[i].valid;
+          if (want[i].valid) worst = std::max(worst, glm::length(glm::vec3(got[i]) - glm::vec3(want[i].value)));
+        }
+      } catch (const gpu::Error& e) {
+        std::fprintf(stderr, "%s: GPU lookup skipped: %s\n", spec.c_str(), e.what());
       }
       const auto& rep = r.report;
       std::printf("%-16s %9.2f %9.2f %9.2f %9.2f %10.1f %10.1f %9.0f %12.2f %12.2f %8.1e%s\n", spec.c_str(),
