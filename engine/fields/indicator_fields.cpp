@@ -159,7 +159,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
             const int i = int(ci % size_t(n.x)), j = int((ci / size_t(n.x)) % size_t(n.y)), k = int(ci / (size_t(n.x) * size_t(n.y)));
             const double d = std::sqrt(double(junction_distance[grid.index(crop.lo.x + i, crop.lo.y + j, crop.lo.z + k)]));
             const double w = std::clamp(d / fade, 0.0, 1.0);
-            const double smooth = w * w * (3 - 2 * w);
+            const double smooth = 0.3 + 0.7 * w * w * (3 - 2 * w);  // never fully raw: 30% keeps the staircase down
             phi[ci] = float(smooth * phi[ci] + (1 - smooth) * raw[ci]);
           }
           phi[ci] = inside[ci] ? std::max(phi[ci], keep) : std::min(phi[ci], -keep);
