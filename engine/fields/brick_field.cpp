@@ -62,9 +62,20 @@ void catmull_rom(double t, double w[4], double dw[4]) {
 }  // namespace
 
 double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const {
-  const glm::dvec3 f = glm::floor(p);
-  const glm::ivec3 base(f);
-  const glm::dvec3 t = p - f;
+  const BrickField* self = this;
+  double v;
+  glm::dvec3 g;
+  sample_cubic_many(&self, 1, p, &v, &g);
+  if (gradient) *gradient = g;
+  return v;
+}
+
+void BrickField::sample_cubic_many(const BrickField* const* fields, int count, const glm::dvec3& p, double* values,
+                                   glm::dvec3* gradients) {
+  const BrickField& f0 = *fields[0];
+  const glm::dvec3 fl = glm::floor(p);
+  const glm::ivec3 base(fl);
+  const glm::dvec3 t = p - fl;
   double wx[4], wy[4], wz[4], dx[4], dy[4], dz[4];
   catmull_rom(t.x, wx, dx);
   catmull_rom(t.y, wy, dy);
@@ -73,9 +84,9 @@ double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const
   // loop of the closest point embedding's Newton projections.
   int bx[4], by[4], bz[4], ox[4], oy[4], oz[4];
   for (int a = 0; a < 4; ++a) {
-    const int x = std::clamp(base.x + a - 1, 0, grid_.dims.x - 1);
-    const int y = std::clamp(base.y + a - 1, 0, grid_.dims.y - 1);
-    const int z = std::clamp(base.z + a - 1, 0, grid_.dims.z - 1);
+    const int x = std::clamp(base.x + a - 1, 0, f0.grid_.dims.x - 1);
+    const int y = std::clamp(base.y + a - 1, 0, f0.grid_.dims.y - 1);
+    const int z = std::clamp(base.z + a - 1, 0, f0.grid_.dims.z - 1);
     bx[a] = x / kBrick;
     ox[a] = x % kBrick;
     by[a] = y / kBrick;
@@ -83,27 +94,30 @@ double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const
     bz[a] = z / kBrick;
     oz[a] = z % kBrick;
   }
-  double v = 0;
-  glm::dvec3 g(0.0);
-  for (int c = 0; c < 4; ++c)
-    for (int b = 0; b < 4; ++b) {
-      const size_t brick_row = (size_t(bz[c]) * size_t(brick_dims_.y) + size_t(by[b])) * size_t(brick_dims_.x);
-      const int offset_row = (oz[c] * kBrick + oy[b]) * kBrick;
-      double row = 0, row_dx = 0;
-      for (int a = 0; a < 4; ++a) {
-        const size_t brick = brick_row + size_t(bx[a]);
-        const int32_t slot = slot_[brick];
-        const double s = slot < 0 ? constant_[brick] : data_[size_t(slot) * kBrickVoxels + size_t(offset_row + ox[a])];
-        row += wx[a] * s;
-        row_dx += dx[a] * s;
+  for (int m = 0; m < count; ++m) {
+    const BrickField& f = *fields[m];
+    double v = 0;
+    glm::dvec3 g(0.0);
+    for (int c = 0; c < 4; ++c)
+      for (int b = 0; b < 4; ++b) {
+        const size_t brick_row = (size_t(bz[c]) * size_t(f.brick_dims_.y) + size_t(by[b])) * size_t(f.brick_dims_.x);
+        const int offset_row = (oz[c] * kBrick + oy[b]) * kBrick;
+        double row = 0, row_dx = 0;
+        for (int a = 0; a < 4; ++a) {
+          const size_t brick = brick_row + size_t(bx[a]);
+          const int32_t slot = f.slot_[brick];
+          const double s = slot < 0 ? f.constant_[brick] : f.data_[size_t(slot) * kBrickVoxels + size_t(offset_row + ox[a])];
+          row += wx[a] * s;
+          row_dx += dx[a] * s;
+        }
+        v += wz[c] * wy[b] * row;
+        g.x += wz[c] * wy[b] * row_dx;
+        g.y += wz[c] * dy[b] * row;
+        g.z += dz[c] * wy[b] * row;
       }
-      v += wz[c] * wy[b] * row;
-      g.x += wz[c] * wy[b] * row_dx;
-      g.y += wz[c] * dy[b] * row;
-      g.z += dz[c] * wy[b] * row;
-    }
-  if (gradient) *gradient = g;
-  return v;
+    values[m] = v;
+    if (gradients) gradients[m] = g;
+  }
 }
 
 double BrickField::sample_linear(const glm::dvec3& p) const {

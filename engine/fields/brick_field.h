@@ -35,6 +35,10 @@ class BrickField {
   // through the samples. `gradient` (optional) receives d/d(index).
   double sample_cubic(const glm::dvec3& ijk, glm::dvec3* gradient = nullptr) const;
   double sample_linear(const glm::dvec3& ijk) const;
+  // sample_cubic of several fields on the same grid at one point, sharing the weights and the gather's indexing (the
+  // Newton projections evaluate two to four fields at every step).
+  static void sample_cubic_many(const BrickField* const* fields, int count, const glm::dvec3& ijk, double* values,
+                                glm::dvec3* gradients);
 
  private:
   size_t brick_index(const glm::ivec3& b) const {

@@ -29,16 +29,18 @@ double eval(const IndicatorFields& F, int m, const glm::dvec3& local, glm::dvec3
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
 bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol) {
   const double max_step = F.grid.min_spacing();
+  const BrickField* fields[4];
+  for (int a = 0; a <= k; ++a) fields[a] = &F.fields[size_t(m[a])];
   for (int it = 0; it < iterations; ++it) {
-    glm::dvec3 g0;
-    const double f0 = eval(F, m[0], x, g0);
+    double f[4];
+    glm::dvec3 grad[4];
+    BrickField::sample_cubic_many(fields, k + 1, x / F.grid.spacing, f, grad);
     glm::dvec3 J[3];
     double g[3];
     double gmax = 0;
     for (int a = 0; a < k; ++a) {
-      glm::dvec3 ga;
-      g[a] = f0 - eval(F, m[a + 1], x, ga);
-      J[a] = g0 - ga;
+      g[a] = f[0] - f[a + 1];
+      J[a] = (grad[0] - grad[a + 1]) / F.grid.spacing;
       gmax = std::max(gmax, std::fabs(g[a]));
     }
     glm::dvec3 step(0.0);
