@@ -1,0 +1,39 @@
+#include "octree/octree_build.h"
+
+#include "cpmesh/shaders.h"
+
+namespace cpmesh::octree {
+
+OctreeBuild::OctreeBuild(gpu::Context& ctx)
+    : ctx_(&ctx),
+      compact_(ctx),
+      split_(ctx, shaders::octree_split),
+      level_(ctx, shaders::octree_level),
+      children_(ctx, shaders::octree_children) {}
+
+void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, uint32_t n, uint32_t leaf_size,
+                         const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info) const {
+  if (n > keys.size() || nodes.size() < node_capacity(n, leaf_size) || level_info.size() < 22)
+    throw gpu::Error("octree build: buffers too small for " + std::to_string(n) + " particles");
+  if (leaf_size == 0) throw gpu::Error("octree build: leaf size must be at least 1");
+  // Root (0, n) and level 0 = (node 0, 1 node); the other levels start empty.
+  std::vector<glm::uvec2> info(22, glm::uvec2(0));
+  info[0] = glm::uvec2(0, 1);
+  seq.copy(gpu::Buffer<glm::uvec2>(*ctx_, info, "octree level info init"), level_info, 22 * sizeof(glm::uvec2))
+      .copy(gpu::Buffer<glm::uvec4>(*ctx_, std::vector<glm::uvec4>{glm::uvec4(0, n, 0, 0)}, "octree root"), nodes,
+            sizeof(glm::uvec4))
+      .barrier();
+  gpu::Buffer<uint32_t> flags(*ctx_, n, "octree flags"), starts(*ctx_, n, "octree child starts"),
+      counts(*ctx_, 22, "octree level counts");
+  for (uint32_t level = 0; level < 21; ++level) {
+    const struct { uint32_t n, level, leaf_size; } split_push{n, level, leaf_size};
+    seq.dispatch(split_, {keys, nodes, level_info, flags}, split_push, n).barrier();
+    compact_.record_indices(seq, flags, n, starts, counts, level + 1);
+    const struct { uint32_t level; } level_push{level};
+    seq.barrier().dispatch(level_, {level_info, counts}, level_push, 1).barrier();
+    const struct { uint32_t n, level; } children_push{n, level};
+    seq.dispatch(children_, {starts, nodes, level_info}, children_push, n).barrier();
+  }
+}
+
+}  // namespace cpmesh::octree

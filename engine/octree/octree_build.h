@@ -1,0 +1,29 @@
+#pragma once
+// The octree over Morton-sorted particles on the GPU, level by level as in Bonsai (Bedorf et al.): per level, flag
+// where the next level's prefix changes inside internal nodes (octree_split), compact those starts, record the level
+// (octree_level) and make the child nodes with their parents' links (octree_children). Every dispatch is sized to n
+// and reads the counts from GPU buffers, so a build needs no host readback. Reference: ref::build_octree.
+#include <glm/glm.hpp>
+
+#include "primitives/compact.h"
+
+namespace cpmesh::octree {
+
+class OctreeBuild {
+ public:
+  explicit OctreeBuild(gpu::Context& ctx);
+  // Node capacity sufficient for n particles: leaves are at most n, internal nodes at most n / (leaf_size + 1) per
+  // level.
+  static size_t node_capacity(uint32_t n, uint32_t leaf_size) { return n + 21 * (size_t(n) / (leaf_size + 1) + 1) + 1; }
+  // nodes: node_capacity() entries, uvec4 (start, count, first_child, level << 8 | child_count);
+  // level_info: 22 entries (first node, node count) per level.
+  void record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& sorted_keys, uint32_t n, uint32_t leaf_size,
+              const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info) const;
+
+ private:
+  gpu::Context* ctx_;
+  gpu::Compact compact_;
+  gpu::Kernel split_, level_, children_;
+};
+
+}  // namespace cpmesh::octree

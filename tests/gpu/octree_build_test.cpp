@@ -1,0 +1,79 @@
+// The GPU octree build against ref::build_octree, and the reference against the octree's definition.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "gpu_fixture.h"
+#include "octree/octree_build.h"
+#include "ref/octree_build.h"
+
+using namespace cpmesh;
+using cpmesh::test::GpuFixture;
+
+namespace {
+
+std::vector<uint64_t> sorted_keys(uint32_t n, uint64_t seed, bool clustered) {
+  std::mt19937_64 rng(seed);
+  std::vector<uint64_t> k(n);
+  for (auto& x : k) {
+    x = rng() >> 1;  // 63 bits
+    if (clustered) x &= ~((uint64_t(1) << 40) - 1) & ((uint64_t(1) << 48) - 1);  // few distinct prefixes, duplicates
+  }
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+}  // namespace
+
+TEST_CASE("reference octree: children partition their parent, leaves are small, prefixes agree") {
+  const auto keys = sorted_keys(5000, 3, false);
+  const auto t = ref::build_octree(keys, 8);
+  uint64_t leaf_particles = 0;
+  for (const auto& node : t.nodes) {
+    const uint32_t level = node.w >> 8, children = node.w & 0xff;
+    if (children == 0) {
+      CHECK((node.y <= 8 || level == 21));
+      leaf_particles += node.y;
+      continue;
+    }
+    CHECK(node.y > 8);
+    uint32_t covered = node.x;
+    for (uint32_t c = 0; c < children; ++c) {
+      const auto& child = t.nodes[node.z + c];
+      CHECK(child.x == covered);
+      CHECK((child.w >> 8) == level + 1);
+      covered += child.y;
+      const int shift = 63 - 3 * int(level + 1);
+      CHECK((keys[child.x] >> shift) == (keys[child.x + child.y - 1] >> shift));
+    }
+    CHECK(covered == node.x + node.y);
+  }
+  CHECK(leaf_particles == keys.size());
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "GPU octree matches the reference") {
+  octree::OctreeBuild build(ctx);
+  for (uint32_t n : {0u, 1u, 17u, 1000u, 70000u}) {
+    for (uint32_t leaf : {1u, 16u}) {
+      for (bool clustered : {false, true}) {
+        CAPTURE(n);
+        CAPTURE(leaf);
+        CAPTURE(clustered);
+        const auto keys = sorted_keys(n, n + leaf, clustered);
+        const auto want = ref::build_octree(keys, leaf);
+        gpu::Buffer<uint64_t> k(ctx, keys, "keys");
+        gpu::Buffer<glm::uvec4> nodes(ctx, octree::OctreeBuild::node_capacity(n, leaf), "nodes");
+        gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+        gpu::Sequence seq(ctx);
+        build.record(seq, k, n, leaf, nodes, info);
+        seq.submit_and_wait();
+        const auto got_info = info.download();
+        REQUIRE(got_info == want.level_info);
+        const auto total = want.nodes.size();
+        REQUIRE(total <= nodes.size());
+        CHECK(nodes.download(0, total) == want.nodes);
+      }
+    }
+  }
+}
