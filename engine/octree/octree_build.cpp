@@ -1,5 +1,7 @@
 #include "octree/octree_build.h"
 
+#include <algorithm>
+
 #include "cpmesh/shaders.h"
 
 namespace cpmesh::octree {
@@ -33,6 +35,20 @@ void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, 
     seq.barrier().dispatch(level_, {level_info, counts}, level_push, 1).barrier();
     const struct { uint32_t n, level; } children_push{n, level};
     seq.dispatch(children_, {starts, nodes, level_info}, children_push, n).barrier();
+  }
+}
+
+OctreeMoments::OctreeMoments(gpu::Context& ctx) : kernel_(ctx, shaders::octree_moments) {}
+
+void OctreeMoments::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes,
+                           const gpu::Buffer<glm::uvec2>& level_info, const gpu::Buffer<uint32_t>& order,
+                           const gpu::Buffer<glm::vec4>& particles, const gpu::Buffer<glm::vec4>& moments,
+                           uint32_t n) const {
+  if (moments.size() < 3 * nodes.size()) throw gpu::Error("octree moments: the moments buffer needs 3 entries per node");
+  // A level has at most n nodes (disjoint particle ranges), and the root level one.
+  for (int level = 21; level >= 0; --level) {
+    const struct { uint32_t level; } push{uint32_t(level)};
+    seq.dispatch(kernel_, {nodes, level_info, order, particles, moments}, push, std::max<uint32_t>(n, 1)).barrier();
   }
 }
 

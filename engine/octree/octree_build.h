@@ -26,4 +26,19 @@ class OctreeBuild {
   gpu::Kernel split_, level_, children_;
 };
 
+// Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
+// one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
+class OctreeMoments {
+ public:
+  explicit OctreeMoments(gpu::Context& ctx);
+  // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h.
+  // moments: 3 per node capacity: (box min, min h), (box max, 0), (centre of mass, count).
+  void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
+              const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
+              const gpu::Buffer<glm::vec4>& moments, uint32_t n) const;
+
+ private:
+  gpu::Kernel kernel_;
+};
+
 }  // namespace cpmesh::octree

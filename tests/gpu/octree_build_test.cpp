@@ -6,7 +6,9 @@
 
 #include "gpu_fixture.h"
 #include "octree/octree_build.h"
+#include "octree/morton.h"
 #include "ref/octree_build.h"
+#include "ref/octree_moments.h"
 
 using namespace cpmesh;
 using cpmesh::test::GpuFixture;
@@ -75,5 +77,52 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree matches the reference") {
         CHECK(nodes.download(0, total) == want.nodes);
       }
     }
+  }
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and moments match the references") {
+  octree::MortonSort sorter(ctx);
+  octree::OctreeBuild build(ctx);
+  octree::OctreeMoments moments(ctx);
+  for (uint32_t n : {1u, 300u, 50000u}) {
+    CAPTURE(n);
+    std::mt19937 rng(n * 7);
+    std::uniform_real_distribution<float> u(0.0f, 50.0f), hs(0.5f, 2.0f);
+    std::vector<glm::vec4> particles(n);
+    for (auto& p : particles) p = glm::vec4(u(rng), u(rng), 0.3f * u(rng), hs(rng));
+    const uint32_t leaf = 16;
+    const auto box = octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(50.0f));
+    gpu::Buffer<glm::vec4> pb(ctx, particles, "particles");
+    gpu::Buffer<uint64_t> keys(ctx, n, "keys");
+    gpu::Buffer<uint32_t> order(ctx, n, "order");
+    const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
+    gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
+    gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+    gpu::Buffer<glm::vec4> m(ctx, 3 * capacity, "moments");
+    gpu::Sequence seq(ctx);
+    sorter.record(seq, pb, box, keys, order, n);
+    build.record(seq, keys, n, leaf, nodes, info);
+    moments.record(seq, nodes, info, order, pb, m, n);
+    seq.submit_and_wait();
+
+    const auto tree = ref::build_octree(keys.download(), leaf);
+    const auto got_order = order.download();
+    const auto want = ref::octree_moments(tree, got_order, particles);
+    const auto got = m.download(0, want.size());
+    REQUIRE(info.download() == tree.level_info);
+    float worst = 0;
+    for (size_t i = 0; i < want.size(); ++i) worst = std::max(worst, glm::length(got[i] - want[i]));
+    CHECK(worst <= 1e-4f * 50.0f);
+    // The root holds every particle: its box and count are those of the input.
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    float min_h = 1e30f;
+    for (const auto& p : particles) {
+      lo = glm::min(lo, glm::vec3(p));
+      hi = glm::max(hi, glm::vec3(p));
+      min_h = std::min(min_h, p.w);
+    }
+    CHECK(got[0] == glm::vec4(lo, min_h));
+    CHECK(glm::vec3(got[1]) == hi);
+    CHECK(got[2].w == float(n));
   }
 }

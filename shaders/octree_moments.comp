@@ -1,0 +1,59 @@
+#version 450
+// Octree upsweep, one level (octree::OctreeMoments): per node, the bounding box of its particles, their smallest
+// sizing h, centre of mass and count; leaves from their particles, internal nodes from their (at most 8) children.
+// Run from level 21 up to the root.
+// Bindings: 0 nodes uvec4[]; 1 level_info uvec2[22]; 2 order uint[n] (Morton order -> particle); 3 particles vec4[]
+//           (xyz position, w sizing h); 4 moments vec4[3 * nodes]: (box min, min h), (box max, 0), (centre, count).
+// Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
+// Loops: at most LEAF_LOOP particles (more only in a level-21 leaf, whose particles share one 63-bit key, i.e. one
+// position to 2^-21 of the box) or 8 children. Reference: ref::octree_moments.
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+
+layout(local_size_x = 256) in;
+layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
+layout(std430, binding = 1) readonly buffer LevelInfo { uvec2 level_info[]; };
+layout(std430, binding = 2) readonly buffer Order { uint order[]; };
+layout(std430, binding = 3) readonly buffer Particles { vec4 particles[]; };
+layout(std430, binding = 4) buffer Moments { vec4 moments[]; };
+layout(push_constant) uniform Push { uint level; } pc;
+
+const uint LEAF_LOOP = 4096;
+
+void main() {
+  const uint g = flat_group_id() * 256 + gl_LocalInvocationID.x;
+  const uvec2 info = level_info[pc.level];
+  if (g >= info.y) return;
+  const uint id = info.x + g;
+  const uvec4 node = nodes[id];
+  const uint children = node.w & 0xffu;
+  vec3 lo = vec3(3.4e38), hi = vec3(-3.4e38), sum = vec3(0.0);
+  float min_h = 3.4e38;
+  float total = 0.0;
+  if (children == 0) {
+    const uint m = min(node.y, LEAF_LOOP);
+    for (uint k = 0; k < m; ++k) {
+      const vec4 p = particles[order[node.x + k]];
+      lo = min(lo, p.xyz);
+      hi = max(hi, p.xyz);
+      min_h = min(min_h, p.w);
+      sum += p.xyz;
+    }
+    total = float(node.y);
+    if (m > 0) sum /= float(m);
+  } else {
+    for (uint c = 0; c < children; ++c) {
+      const uint child = node.z + c;
+      const vec4 a = moments[3 * child], b = moments[3 * child + 1], com = moments[3 * child + 2];
+      lo = min(lo, a.xyz);
+      hi = max(hi, b.xyz);
+      min_h = min(min_h, a.w);
+      sum += com.xyz * com.w;
+      total += com.w;
+    }
+    if (total > 0.0) sum /= total;
+  }
+  moments[3 * id] = vec4(lo, min_h);
+  moments[3 * id + 1] = vec4(hi, 0.0);
+  moments[3 * id + 2] = vec4(sum, total);
+}
