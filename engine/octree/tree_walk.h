@@ -1,0 +1,26 @@
+#pragma once
+// Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy).
+#include <glm/glm.hpp>
+
+#include "gpu/sequence.h"
+
+namespace cpmesh::octree {
+
+class TreeWalk {
+ public:
+  explicit TreeWalk(gpu::Context& ctx);
+  // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out.
+  // feature_masks: per feature, the set of its materials as a 64-bit mask.
+  void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::vec4>& moments,
+              const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
+              const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
+              const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts, uint32_t n,
+              uint32_t walkers = ~0u) const;  // walk only the first `walkers` particles in Morton order
+
+  static constexpr uint32_t kBudgetExceeded = 0x80000000u;
+
+ private:
+  gpu::Kernel kernel_;
+};
+
+}  // namespace cpmesh::octree
