@@ -1,0 +1,117 @@
+#include "particles/particle_system.h"
+
+#include "cpmesh/shaders.h"
+
+namespace cpmesh::particles {
+
+namespace {
+
+std::vector<uint64_t> feature_masks(const fields::ClosestPointEmbedding& E) {
+  std::vector<uint64_t> masks;
+  for (const auto& f : E.features) {
+    uint64_t m = 0;
+    for (int a = 0; a < f.material_count(); ++a) {
+      if (f.materials[size_t(a)] >= 64)
+        throw std::runtime_error("the particle system supports at most 64 materials");
+      m |= uint64_t(1) << f.materials[size_t(a)];
+    }
+    masks.push_back(m);
+  }
+  return masks;
+}
+
+std::vector<uint32_t> feature_kinds(const fields::ClosestPointEmbedding& E) {
+  std::vector<uint32_t> kinds;
+  for (const auto& f : E.features) kinds.push_back(uint32_t(f.kind));
+  return kinds;
+}
+
+}  // namespace
+
+ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbedding& E,
+                               const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
+                               const AdvectionOptions& options)
+    : ctx_(&ctx),
+      options_(options),
+      n_(uint32_t(particles.size())),
+      embedding_(ctx, E),
+      box_(octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(glm::dvec3(E.grid.dims) * E.grid.spacing))),
+      sort_(ctx),
+      build_(ctx),
+      moments_(ctx),
+      walk_(ctx),
+      reduce_(ctx),
+      advect_(ctx, shaders::advect),
+      particles_(ctx, particles, "particles"),
+      walk_result_(ctx, n_, "walk result"),
+      node_moments_(ctx, 3 * octree::OctreeBuild::node_capacity(n_, options.leaf_size), "node moments"),
+      features_(ctx, features, "particle features"),
+      feature_kinds_(ctx, feature_kinds(E), "feature kinds"),
+      order_(ctx, n_, "morton order"),
+      counts_(ctx, n_, "walk counts"),
+      lost_(ctx, 1, "lost particles", gpu::MemoryUse::readback),
+      feature_masks_(ctx, feature_masks(E), "feature masks"),
+      keys_(ctx, n_, "morton keys"),
+      nodes_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size), "octree nodes"),
+      level_info_(ctx, 22, "octree levels"),
+      energy_(ctx, n_, "particle energy"),
+      readback_(ctx, 1, "total energy", gpu::MemoryUse::readback) {
+  if (features.size() != particles.size()) throw std::invalid_argument("one feature per particle");
+}
+
+void ParticleSystem::record_walk(gpu::Sequence& seq) {
+  sort_.record(seq, particles_, box_, keys_, order_, n_);
+  build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_);
+  moments_.record(seq, nodes_, level_info_, order_, particles_, node_moments_, n_);
+  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_, n_);
+  seq.barrier();
+}
+
+std::vector<glm::vec4> ParticleSystem::energies() {
+  gpu::Sequence seq(*ctx_);
+  record_walk(seq);
+  seq.submit_and_wait();
+  return walk_result_.download();
+}
+
+IterationStats ParticleSystem::step() {
+  gpu::Sequence seq(*ctx_);
+  seq.fill(lost_, 0).barrier();
+  record_walk(seq);
+  const auto& e = embedding_;
+  const struct {
+    glm::ivec4 dims_sub;
+    glm::vec4 spacing;
+    uint32_t table_mask, chunk_blocks, n;
+    float alpha, max_move;
+  } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), e.table_mask, e.chunk_blocks, n_, options_.alpha,
+         options_.max_move};
+  seq.dispatch(advect_, {e.keys, e.blocks, e.fine[0], e.fine[1], e.fine[2], e.fine[3], particles_, features_,
+                         feature_kinds_, walk_result_, energy_, lost_},
+               push, n_)
+      .barrier();
+  reduce_.record(seq, gpu::ReduceOp::sum, energy_, n_, readback_);
+  seq.submit_and_wait();
+  IterationStats s;
+  s.energy = readback_.read(0);
+  s.lost = lost_.read(0);
+  return s;
+}
+
+ParticleSystem::RunResult ParticleSystem::run() {
+  RunResult r;
+  double previous = 0;
+  for (int it = 0; it < options_.max_iterations; ++it) {
+    const IterationStats s = step();
+    r.energies.push_back(s.energy);
+    r.iterations = it + 1;
+    if (it > 0 && previous > 0 && (previous - s.energy) / previous < options_.delta) {
+      r.converged = true;
+      break;
+    }
+    previous = s.energy;
+  }
+  return r;
+}
+
+}  // namespace cpmesh::particles

@@ -1,0 +1,70 @@
+#pragma once
+// The GPU particle system (seed paper Sec. 5; issue 6): per iteration, one submission that Morton-sorts the
+// particles, rebuilds the octree and its moments, walks it for every particle's energy and gradient, advects the
+// particles in their features' tangent spaces with closest point reprojection, and sums the energy on the GPU. The
+// host reads back two numbers per iteration (total energy, particles that left their band) and applies the paper's
+// stop rule: (E_prev - E) / E_prev < delta.
+#include <vector>
+
+#include "fields/cp_lookup_gpu.h"
+#include "octree/morton.h"
+#include "octree/octree_build.h"
+#include "octree/tree_walk.h"
+#include "primitives/reduce.h"
+
+namespace cpmesh::particles {
+
+struct AdvectionOptions {
+  float alpha = 0.05f;      // step = -alpha h^2 grad E
+  float max_move = 0.2f;    // at most this fraction of h per iteration
+  uint32_t leaf_size = 16;  // octree leaf bucket
+  double delta = 0.0015;    // stop when the relative energy decrease falls below this (paper)
+  int max_iterations = 500;
+};
+
+struct IterationStats {
+  double energy = 0;   // total energy before the step
+  uint32_t lost = 0;   // particles whose step left their feature's band (they stayed put)
+};
+
+class ParticleSystem {
+ public:
+  // particles: xyz local position on its feature, w sizing h; features: index into embedding.features.
+  ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbedding& embedding, const std::vector<glm::vec4>& particles,
+                 const std::vector<uint32_t>& features, const AdvectionOptions& options = {});
+
+  IterationStats step();  // one iteration, one submission
+  struct RunResult {
+    int iterations = 0;
+    bool converged = false;
+    std::vector<double> energies;
+  };
+  RunResult run();
+
+  std::vector<glm::vec4> particles() const { return particles_.download(); }
+  // Energy and gradient of every particle at the current positions (a walk without a step).
+  std::vector<glm::vec4> energies();
+  uint32_t size() const { return n_; }
+
+ private:
+  void record_walk(gpu::Sequence& seq);
+  gpu::Context* ctx_;
+  AdvectionOptions options_;
+  uint32_t n_;
+  fields::GpuEmbedding embedding_;
+  octree::MortonBox box_;
+  octree::MortonSort sort_;
+  octree::OctreeBuild build_;
+  octree::OctreeMoments moments_;
+  octree::TreeWalk walk_;
+  gpu::Reduce reduce_;
+  gpu::Kernel advect_;
+  gpu::Buffer<glm::vec4> particles_, walk_result_, node_moments_;
+  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, lost_;
+  gpu::Buffer<uint64_t> feature_masks_, keys_;
+  gpu::Buffer<glm::uvec4> nodes_;
+  gpu::Buffer<glm::uvec2> level_info_;
+  gpu::Buffer<float> energy_, readback_;
+};
+
+}  // namespace cpmesh::particles

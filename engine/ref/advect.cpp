@@ -1,0 +1,24 @@
+#include "ref/advect.h"
+
+namespace cpmesh::ref {
+
+uint32_t advect(const fields::ClosestPointEmbedding& E, std::vector<glm::vec4>& particles,
+                const std::vector<uint32_t>& features, const std::vector<glm::vec4>& walk, float alpha, float max_move) {
+  uint32_t lost = 0;
+  for (size_t i = 0; i < particles.size(); ++i) {
+    if (E.features[features[i]].kind == fields::FeatureKind::quadruple_point) continue;
+    const glm::vec4 p = particles[i];
+    glm::vec3 step = -alpha * p.w * p.w * glm::vec3(walk[i]);
+    const float len = glm::length(step), limit = max_move * p.w;
+    if (len > limit) step *= limit / len;
+    const CpResult cp = cp_lookup(E, glm::vec3(p) + step, features[i]);
+    if (!cp.valid) {
+      ++lost;
+      continue;
+    }
+    particles[i] = cp.value;
+  }
+  return lost;
+}
+
+}  // namespace cpmesh::ref
