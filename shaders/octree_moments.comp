@@ -1,9 +1,12 @@
 #version 450
 // Octree upsweep, one level (octree::OctreeMoments): per node, the bounding box of its particles, their smallest
-// sizing h, centre of mass and count; leaves from their particles, internal nodes from their (at most 8) children.
+// sizing h, centre of mass and count, and the intersection (AND) of their features' material masks (the far-field
+// approximation of the tree walk may only lump a node whose every particle interacts with the walker); leaves from
+// their particles, internal nodes from their (at most 8) children.
 // Run from level 21 up to the root.
 // Bindings: 0 nodes uvec4[]; 1 level_info uvec2[22]; 2 order uint[n] (Morton order -> particle); 3 particles vec4[]
-//           (xyz position, w sizing h); 4 moments vec4[3 * nodes]: (box min, min h), (box max, 0), (centre, count).
+//           (xyz position, w sizing h); 4 moments vec4[4 * nodes]: (box min, min h), (box max, 0), (centre, count),
+//           (AND mask low, high word as float bits, 0, 0); 5 features uint[n]; 6 feature_masks uvec2[].
 // Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
 // Loops: at most LEAF_LOOP particles (more only in a level-21 leaf, whose particles share one 63-bit key, i.e. one
 // position to 2^-21 of the box) or 8 children. Reference: ref::octree_moments.
@@ -16,6 +19,8 @@ layout(std430, binding = 1) readonly buffer LevelInfo { uvec2 level_info[]; };
 layout(std430, binding = 2) readonly buffer Order { uint order[]; };
 layout(std430, binding = 3) readonly buffer Particles { vec4 particles[]; };
 layout(std430, binding = 4) buffer Moments { vec4 moments[]; };
+layout(std430, binding = 5) readonly buffer Features { uint features[]; };
+layout(std430, binding = 6) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
 layout(push_constant) uniform Push { uint level; } pc;
 
 const uint LEAF_LOOP = 4096;
@@ -30,10 +35,13 @@ void main() {
   vec3 lo = vec3(3.4e38), hi = vec3(-3.4e38), sum = vec3(0.0);
   float min_h = 3.4e38;
   float total = 0.0;
+  uvec2 and_mask = uvec2(0xffffffffu);
   if (children == 0) {
     const uint m = min(node.y, LEAF_LOOP);
     for (uint k = 0; k < m; ++k) {
-      const vec4 p = particles[order[node.x + k]];
+      const uint particle = order[node.x + k];
+      and_mask &= feature_masks[features[particle]];
+      const vec4 p = particles[particle];
       lo = min(lo, p.xyz);
       hi = max(hi, p.xyz);
       min_h = min(min_h, p.w);
@@ -44,7 +52,8 @@ void main() {
   } else {
     for (uint c = 0; c < children; ++c) {
       const uint child = node.z + c;
-      const vec4 a = moments[3 * child], b = moments[3 * child + 1], com = moments[3 * child + 2];
+      const vec4 a = moments[4 * child], b = moments[4 * child + 1], com = moments[4 * child + 2];
+      and_mask &= floatBitsToUint(moments[4 * child + 3].xy);
       lo = min(lo, a.xyz);
       hi = max(hi, b.xyz);
       min_h = min(min_h, a.w);
@@ -53,7 +62,8 @@ void main() {
     }
     if (total > 0.0) sum /= total;
   }
-  moments[3 * id] = vec4(lo, min_h);
-  moments[3 * id + 1] = vec4(hi, 0.0);
-  moments[3 * id + 2] = vec4(sum, total);
+  moments[4 * id] = vec4(lo, min_h);
+  moments[4 * id + 1] = vec4(hi, 0.0);
+  moments[4 * id + 2] = vec4(sum, total);
+  moments[4 * id + 3] = vec4(uintBitsToFloat(and_mask), 0.0, 0.0);
 }

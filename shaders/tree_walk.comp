@@ -3,11 +3,14 @@
 //   d_ij = |p_i - p_j| / (2 cos(pi/6) min(h_i, h_j)),  E_ij = cot(d pi/2) + d pi/2 - pi/2 for d <= 1, else 0.
 // Particle i feels particle j when j lies on i's feature or on a lower-dimensional feature bounding it: the
 // materials of j's feature include those of i's (material sets as 64-bit masks). Nodes whose box is farther than
-// 2 cos(pi/6) h_i are pruned: with the energy's compact support that is exact.
-// Bindings: 0 nodes uvec4[]; 1 moments vec4[3 per node] (box min, box max, ...); 2 order uint[n]; 3 particles vec4[n]
+// 2 cos(pi/6) h_i are pruned: with the energy's compact support that is exact (theta = 0). With theta > 0 (the
+// paper's Barnes-Hut mode) a node that does not hold the walker, is seen under size / distance < theta and whose
+// particles all interact with the walker (the AND of their feature masks) counts as its particles lumped at their
+// centre of mass with the node's smallest h.
+// Bindings: 0 nodes uvec4[]; 1 moments vec4[4 per node] (box min + min h, box max, centre + count, AND mask); 2 order uint[n]; 3 particles vec4[n]
 //           (xyz, w = h); 4 features uint[n]; 5 feature_masks uvec2[]; 6 result vec4[n] (gradient of E_i wrt p_i in
 //           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out).
-// Push: walkers (<= n). Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per workgroup.
+// Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
 #extension GL_GOOGLE_include_directive : require
@@ -22,7 +25,7 @@ layout(std430, binding = 4) readonly buffer Features { uint features[]; };
 layout(std430, binding = 5) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
 layout(std430, binding = 6) writeonly buffer Result { vec4 result[]; };
 layout(std430, binding = 7) writeonly buffer Counts { uint counts[]; };
-layout(push_constant) uniform Push { uint walkers; } pc;
+layout(push_constant) uniform Push { uint walkers; float theta; } pc;
 
 const float PI = 3.14159265358979;
 const float SUPPORT = 1.7320508075688772;  // 2 cos(pi/6)
@@ -47,9 +50,29 @@ void main() {
   while (sp > 0 && work < WORK_BUDGET) {
     const uint id = stack[--sp];
     ++work;
-    const vec3 lo = moments[3 * id].xyz, up = moments[3 * id + 1].xyz;
+    const vec3 lo = moments[4 * id].xyz, up = moments[4 * id + 1].xyz;
     const vec3 outside = max(max(lo - p, p - up), vec3(0.0));
-    if (dot(outside, outside) > cutoff * cutoff) continue;
+    const float box_distance2 = dot(outside, outside);
+    if (box_distance2 > cutoff * cutoff) continue;
+    if (pc.theta > 0.0 && box_distance2 > 0.0) {
+      const vec4 com = moments[4 * id + 2];
+      const vec3 extent = up - lo;
+      const vec3 delta = p - com.xyz;
+      const float r = length(delta);
+      const uvec2 node_mask = floatBitsToUint(moments[4 * id + 3].xy);
+      if (max(extent.x, max(extent.y, extent.z)) < pc.theta * r && (node_mask & mask) == mask) {
+        const float scale = SUPPORT * min(hi_, moments[4 * id].w);
+        const float d = max(r / scale, 1e-3);
+        if (d < 1.0) {
+          pairs += uint(com.w);
+          const float x = d * PI * 0.5;
+          const float c = cos(x) / sin(x);
+          energy += com.w * (c + x - PI * 0.5);
+          grad += com.w * (-0.5 * PI * c * c) * delta / (r * scale);
+        }
+        continue;
+      }
+    }
     const uvec4 node = nodes[id];
     const uint children = node.w & 0xffu;
     if (children == 0) {

@@ -31,10 +31,14 @@ class OctreeBuild {
 class OctreeMoments {
  public:
   explicit OctreeMoments(gpu::Context& ctx);
-  // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h.
-  // moments: 3 per node capacity: (box min, min h), (box max, 0), (centre of mass, count).
+  // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h;
+  // features / feature_masks: each particle's feature and each feature's material set (64-bit mask).
+  // moments: kMomentsPerNode per node capacity: (box min, min h), (box max, 0), (centre of mass, count),
+  // (AND of the feature masks as float bits).
+  static constexpr size_t kMomentsPerNode = 4;
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
+              const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
               const gpu::Buffer<glm::vec4>& moments, uint32_t n) const;
 
  private:

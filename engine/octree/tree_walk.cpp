@@ -12,11 +12,14 @@ void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, 
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
                       const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
                       const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts, uint32_t n,
-                      uint32_t walkers) const {
+                      uint32_t walkers, float theta) const {
   if (n > particles.size() || n > features.size() || n > result.size() || n > counts.size() || n > order.size())
     throw gpu::Error("tree walk: n exceeds a buffer");
   walkers = std::min(walkers, n);
-  const struct { uint32_t walkers; } push{walkers};
+  const struct {
+    uint32_t walkers;
+    float theta;
+  } push{walkers, theta};
   seq.dispatch(kernel_, {nodes, moments, order, particles, features, feature_masks, result, counts}, push, walkers);
 }
 

@@ -15,7 +15,8 @@ class TreeWalk {
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
               const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
               const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts, uint32_t n,
-              uint32_t walkers = ~0u) const;  // walk only the first `walkers` particles in Morton order
+              uint32_t walkers = ~0u,  // walk only the first `walkers` particles in Morton order
+              float theta = 0.0f) const;  // 0: exact; > 0: lump far nodes (size / distance < theta) at their centre
 
   static constexpr uint32_t kBudgetExceeded = 0x80000000u;
 

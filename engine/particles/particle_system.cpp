@@ -44,7 +44,8 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       advect_(ctx, shaders::advect),
       particles_(ctx, particles, "particles"),
       walk_result_(ctx, n_, "walk result"),
-      node_moments_(ctx, 3 * octree::OctreeBuild::node_capacity(n_, options.leaf_size), "node moments"),
+      node_moments_(ctx, octree::OctreeMoments::kMomentsPerNode * octree::OctreeBuild::node_capacity(n_, options.leaf_size),
+                    "node moments"),
       features_(ctx, features, "particle features"),
       feature_kinds_(ctx, feature_kinds(E), "feature kinds"),
       order_(ctx, n_, "morton order"),
@@ -62,8 +63,9 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
 void ParticleSystem::record_walk(gpu::Sequence& seq) {
   sort_.record(seq, particles_, box_, keys_, order_, n_);
   build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_);
-  moments_.record(seq, nodes_, level_info_, order_, particles_, node_moments_, n_);
-  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_, n_);
+  moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_);
+  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_, n_,
+               ~0u, options_.theta);
   seq.barrier();
 }
 

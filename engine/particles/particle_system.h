@@ -18,6 +18,7 @@ struct AdvectionOptions {
   float alpha = 0.05f;      // step = -alpha h^2 grad E
   float max_move = 0.2f;    // at most this fraction of h per iteration
   uint32_t leaf_size = 16;  // octree leaf bucket
+  float theta = 0.0f;       // 0: exact walk (prune beyond the energy's support); > 0: Barnes-Hut opening angle
   double delta = 0.0015;    // stop when the relative energy decrease falls below this (paper)
   int max_iterations = 500;
 };

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 
+#include <glm/gtc/packing.hpp>
+
 namespace cpmesh::ref {
 
 std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_t>& order,
-                                      const std::vector<glm::vec4>& particles) {
-  std::vector<glm::vec4> m(3 * t.nodes.size());
+                                      const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
+                                      const std::vector<uint64_t>& masks) {
+  std::vector<glm::vec4> m(4 * t.nodes.size());
   for (int level = 21; level >= 0; --level) {
     const glm::uvec2 info = t.level_info[size_t(level)];
     for (uint32_t id = info.x; id < info.x + info.y; ++id) {
@@ -14,9 +17,11 @@ std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_
       const uint32_t children = node.w & 0xffu;
       glm::vec3 lo(3.4e38f), hi(-3.4e38f), sum(0.0f);
       float min_h = 3.4e38f, total = 0.0f;
+      uint64_t and_mask = ~uint64_t(0);
       if (children == 0) {
         const uint32_t count = std::min<uint32_t>(node.y, 4096);
         for (uint32_t k = 0; k < count; ++k) {
+          and_mask &= masks[features[order[node.x + k]]];
           const glm::vec4 p = particles[order[node.x + k]];
           lo = glm::min(lo, glm::vec3(p));
           hi = glm::max(hi, glm::vec3(p));
@@ -28,17 +33,22 @@ std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_
       } else {
         for (uint32_t c = 0; c < children; ++c) {
           const size_t child = node.z + c;
-          lo = glm::min(lo, glm::vec3(m[3 * child]));
-          hi = glm::max(hi, glm::vec3(m[3 * child + 1]));
-          min_h = std::min(min_h, m[3 * child].w);
-          sum += glm::vec3(m[3 * child + 2]) * m[3 * child + 2].w;
-          total += m[3 * child + 2].w;
+          lo = glm::min(lo, glm::vec3(m[4 * child]));
+          hi = glm::max(hi, glm::vec3(m[4 * child + 1]));
+          min_h = std::min(min_h, m[4 * child].w);
+          sum += glm::vec3(m[4 * child + 2]) * m[4 * child + 2].w;
+          total += m[4 * child + 2].w;
+          const uint64_t child_mask = uint64_t(glm::floatBitsToUint(m[4 * child + 3].x)) |
+                                      (uint64_t(glm::floatBitsToUint(m[4 * child + 3].y)) << 32);
+          and_mask &= child_mask;
         }
         if (total > 0.0f) sum /= total;
       }
-      m[3 * size_t(id)] = glm::vec4(lo, min_h);
-      m[3 * size_t(id) + 1] = glm::vec4(hi, 0.0f);
-      m[3 * size_t(id) + 2] = glm::vec4(sum, total);
+      m[4 * size_t(id)] = glm::vec4(lo, min_h);
+      m[4 * size_t(id) + 1] = glm::vec4(hi, 0.0f);
+      m[4 * size_t(id) + 2] = glm::vec4(sum, total);
+      m[4 * size_t(id) + 3] = glm::vec4(glm::uintBitsToFloat(uint32_t(and_mask)), glm::uintBitsToFloat(uint32_t(and_mask >> 32)),
+                                        0.0f, 0.0f);
     }
   }
   return m;

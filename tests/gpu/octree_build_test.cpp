@@ -98,16 +98,21 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
     gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
     gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
-    gpu::Buffer<glm::vec4> m(ctx, 3 * capacity, "moments");
+    gpu::Buffer<glm::vec4> m(ctx, octree::OctreeMoments::kMomentsPerNode * capacity, "moments");
+    std::vector<uint32_t> features(n);
+    for (uint32_t i = 0; i < n; ++i) features[i] = i % 3;
+    const std::vector<uint64_t> masks = {0b011, 0b111, 0b110};
+    gpu::Buffer<uint32_t> fb(ctx, features, "features");
+    gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks");
     gpu::Sequence seq(ctx);
     sorter.record(seq, pb, box, keys, order, n);
     build.record(seq, keys, n, leaf, nodes, info);
-    moments.record(seq, nodes, info, order, pb, m, n);
+    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
     seq.submit_and_wait();
 
     const auto tree = ref::build_octree(keys.download(), leaf);
     const auto got_order = order.download();
-    const auto want = ref::octree_moments(tree, got_order, particles);
+    const auto want = ref::octree_moments(tree, got_order, particles, features, masks);
     const auto got = m.download(0, want.size());
     REQUIRE(info.download() == tree.level_info);
     float worst = 0;
@@ -124,5 +129,7 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     CHECK(got[0] == glm::vec4(lo, min_h));
     CHECK(glm::vec3(got[1]) == hi);
     CHECK(got[2].w == float(n));
+    // The AND of the masks: the root's is what all three features share (material 1), a leaf of one feature its own.
+    CHECK(glm::floatBitsToUint(got[3].x) == (n >= 3 ? 0b010u : uint32_t(masks[0])));
   }
 }

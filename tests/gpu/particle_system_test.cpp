@@ -79,7 +79,11 @@ TEST_CASE_FIXTURE(GpuFixture, "one GPU iteration matches the reference iteration
 TEST_CASE_FIXTURE(GpuFixture, "sphere with a fixed particle count converges to an even sampling on the surface") {
   const auto& s = sphere();
   const auto start = seed(s, 450, 2);
-  particles::ParticleSystem system(ctx, s.fields.embedding, start, std::vector<uint32_t>(start.size(), 0));
+  particles::AdvectionOptions opt;
+  SUBCASE("exact walk") { opt.theta = 0.0f; }
+  SUBCASE("Barnes-Hut walk, theta = 0.75") { opt.theta = 0.75f; }
+  CAPTURE(opt.theta);
+  particles::ParticleSystem system(ctx, s.fields.embedding, start, std::vector<uint32_t>(start.size(), 0), opt);
   const auto run = system.run();
   const auto end = system.particles();
   MESSAGE("iterations " << run.iterations << ", energy " << run.energies.front() << " -> " << run.energies.back());

@@ -28,7 +28,7 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   octree::OctreeMoments moments(ctx);
   octree::TreeWalk tree_walk(ctx);
   const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
-  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), m(ctx, 3 * capacity, "moments"), result(ctx, n, "result");
+  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), m(ctx, octree::OctreeMoments::kMomentsPerNode * capacity, "moments"), result(ctx, n, "result");
   gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), counts(ctx, n, "counts");
   gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
   gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
@@ -36,7 +36,7 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   gpu::Sequence seq(ctx);
   sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(extent)), keys, order, n);
   build.record(seq, keys, n, leaf, nodes, info);
-  moments.record(seq, nodes, info, order, pb, m, n);
+  moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
   seq.fill(counts, 0);
   seq.barrier();
   tree_walk.record(seq, nodes, m, order, pb, fb, mb, result, counts, n, walkers);
