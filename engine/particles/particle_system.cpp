@@ -100,6 +100,12 @@ IterationStats ParticleSystem::step() {
   return s;
 }
 
+uint64_t ParticleSystem::last_pair_count() const {
+  uint64_t total = 0;
+  for (uint32_t c : counts_.download()) total += c & ~octree::TreeWalk::kBudgetExceeded;
+  return total;
+}
+
 ParticleSystem::RunResult ParticleSystem::run() {
   RunResult r;
   double previous = 0;

@@ -46,6 +46,8 @@ class ParticleSystem {
   // Energy and gradient of every particle at the current positions (a walk without a step).
   std::vector<glm::vec4> energies();
   uint32_t size() const { return n_; }
+  // Pairs evaluated by the last walk (a lumped node counts its particles), read back from the GPU.
+  uint64_t last_pair_count() const;
 
  private:
   void record_walk(gpu::Sequence& seq);
