@@ -9,7 +9,8 @@
 // centre of mass with the node's smallest h.
 // Bindings: 0 nodes uvec4[]; 1 moments vec4[4 per node] (box min + min h, box max, centre + count, AND mask); 2 order uint[n]; 3 particles vec4[n]
 //           (xyz, w = h); 4 features uint[n]; 5 feature_masks uvec2[]; 6 result vec4[n] (gradient of E_i wrt p_i in
-//           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out).
+//           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out);
+//           8 visits uint[n] (nodes visited).
 // Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
@@ -25,6 +26,7 @@ layout(std430, binding = 4) readonly buffer Features { uint features[]; };
 layout(std430, binding = 5) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
 layout(std430, binding = 6) writeonly buffer Result { vec4 result[]; };
 layout(std430, binding = 7) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 8) writeonly buffer Visits { uint visits[]; };
 layout(push_constant) uniform Push { uint walkers; float theta; } pc;
 
 const float PI = 3.14159265358979;
@@ -44,12 +46,13 @@ void main() {
   uint stack[STACK];
   uint sp = 0;
   stack[sp++] = 0;
-  uint work = 0, pairs = 0;
+  uint work = 0, pairs = 0, visited = 0;
   float energy = 0.0;
   vec3 grad = vec3(0.0);
   while (sp > 0 && work < WORK_BUDGET) {
     const uint id = stack[--sp];
     ++work;
+    ++visited;
     const vec3 lo = moments[4 * id].xyz, up = moments[4 * id + 1].xyz;
     const vec3 outside = max(max(lo - p, p - up), vec3(0.0));
     const float box_distance2 = dot(outside, outside);
@@ -103,4 +106,5 @@ void main() {
   }
   result[i] = vec4(grad, energy);
   counts[i] = pairs | ((sp > 0 || work >= WORK_BUDGET) ? 0x80000000u : 0u);
+  visits[i] = visited;
 }

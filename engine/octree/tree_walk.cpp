@@ -11,16 +11,18 @@ TreeWalk::TreeWalk(gpu::Context& ctx) : kernel_(ctx, shaders::tree_walk) {}
 void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::vec4>& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
                       const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-                      const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts, uint32_t n,
+                      const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,
+                      const gpu::Buffer<uint32_t>& visits, uint32_t n,
                       uint32_t walkers, float theta) const {
-  if (n > particles.size() || n > features.size() || n > result.size() || n > counts.size() || n > order.size())
+  if (n > particles.size() || n > features.size() || n > result.size() || n > counts.size() || n > order.size() ||
+      n > visits.size())
     throw gpu::Error("tree walk: n exceeds a buffer");
   walkers = std::min(walkers, n);
   const struct {
     uint32_t walkers;
     float theta;
   } push{walkers, theta};
-  seq.dispatch(kernel_, {nodes, moments, order, particles, features, feature_masks, result, counts}, push, walkers);
+  seq.dispatch(kernel_, {nodes, moments, order, particles, features, feature_masks, result, counts, visits}, push, walkers);
 }
 
 }  // namespace cpmesh::octree

@@ -9,12 +9,14 @@ namespace cpmesh::octree {
 class TreeWalk {
  public:
   explicit TreeWalk(gpu::Context& ctx);
-  // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out.
+  // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out;
+  // visits[i] = octree nodes visited.
   // feature_masks: per feature, the set of its materials as a 64-bit mask.
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::vec4>& moments,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
               const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-              const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts, uint32_t n,
+              const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,
+              const gpu::Buffer<uint32_t>& visits, uint32_t n,
               uint32_t walkers = ~0u,  // walk only the first `walkers` particles in Morton order
               float theta = 0.0f) const;  // 0: exact; > 0: lump far nodes (size / distance < theta) at their centre
 

@@ -1,5 +1,7 @@
 #include "particles/particle_system.h"
 
+#include <algorithm>
+
 #include "cpmesh/shaders.h"
 
 namespace cpmesh::particles {
@@ -33,6 +35,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
                                const AdvectionOptions& options)
     : ctx_(&ctx),
       options_(options),
+      alpha_(options.alpha),
       n_(uint32_t(particles.size())),
       embedding_(ctx, E),
       box_(octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(glm::dvec3(E.grid.dims) * E.grid.spacing))),
@@ -50,6 +53,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       feature_kinds_(ctx, feature_kinds(E), "feature kinds"),
       order_(ctx, n_, "morton order"),
       counts_(ctx, n_, "walk counts"),
+      visits_(ctx, n_, "walk visits"),
       lost_(ctx, 1, "lost particles", gpu::MemoryUse::readback),
       feature_masks_(ctx, feature_masks(E), "feature masks"),
       keys_(ctx, n_, "morton keys"),
@@ -64,8 +68,8 @@ void ParticleSystem::record_walk(gpu::Sequence& seq) {
   sort_.record(seq, particles_, box_, keys_, order_, n_);
   build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_);
   moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_);
-  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_, n_,
-               ~0u, options_.theta);
+  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
+               visits_, n_, ~0u, options_.theta);
   seq.barrier();
 }
 
@@ -86,7 +90,7 @@ IterationStats ParticleSystem::step() {
     glm::vec4 spacing;
     uint32_t table_mask, chunk_blocks, n;
     float alpha, max_move;
-  } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), e.table_mask, e.chunk_blocks, n_, options_.alpha,
+  } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), e.table_mask, e.chunk_blocks, n_, alpha_,
          options_.max_move};
   seq.dispatch(advect_, {e.keys, e.blocks, e.fine[0], e.fine[1], e.fine[2], e.fine[3], particles_, features_,
                          feature_kinds_, walk_result_, energy_, lost_},
@@ -98,6 +102,12 @@ IterationStats ParticleSystem::step() {
   s.energy = readback_.read(0);
   s.lost = lost_.read(0);
   return s;
+}
+
+uint64_t ParticleSystem::last_node_visits() const {
+  uint64_t total = 0;
+  for (uint32_t v : visits_.download()) total += v;
+  return total;
 }
 
 uint64_t ParticleSystem::last_pair_count() const {
@@ -113,9 +123,14 @@ ParticleSystem::RunResult ParticleSystem::run() {
     const IterationStats s = step();
     r.energies.push_back(s.energy);
     r.iterations = it + 1;
-    if (it > 0 && previous > 0 && (previous - s.energy) / previous < options_.delta) {
-      r.converged = true;
-      break;
+    if (it > 0 && s.energy > previous) {
+      alpha_ = std::max(alpha_ * 0.5f, options_.alpha / 64.0f);  // the last step overshot: take smaller ones
+    } else {
+      alpha_ = std::min(alpha_ * 1.1f, options_.alpha);
+      if (it > 0 && previous > 0 && (previous - s.energy) / previous < options_.delta) {
+        r.converged = true;
+        break;
+      }
     }
     previous = s.energy;
   }

@@ -15,7 +15,7 @@
 namespace cpmesh::particles {
 
 struct AdvectionOptions {
-  float alpha = 0.05f;      // step = -alpha h^2 grad E
+  float alpha = 0.05f;      // step = -alpha h^2 grad E (the starting value: run() adapts it)
   float max_move = 0.2f;    // at most this fraction of h per iteration
   uint32_t leaf_size = 16;  // octree leaf bucket
   float theta = 0.0f;       // 0: exact walk (prune beyond the energy's support); > 0: Barnes-Hut opening angle
@@ -34,7 +34,10 @@ class ParticleSystem {
   ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbedding& embedding, const std::vector<glm::vec4>& particles,
                  const std::vector<uint32_t>& features, const AdvectionOptions& options = {});
 
-  IterationStats step();  // one iteration, one submission
+  IterationStats step();  // one iteration, one submission, with the current step factor
+  // run(): iterations until the stop rule. The step factor halves whenever the total energy rose (down to 1/64 of
+  // the start) and grows by 10% per decreasing step back up to the start, so a step can never make the energy grow
+  // for long; the move is also clamped to max_move h.
   struct RunResult {
     int iterations = 0;
     bool converged = false;
@@ -48,11 +51,14 @@ class ParticleSystem {
   uint32_t size() const { return n_; }
   // Pairs evaluated by the last walk (a lumped node counts its particles), read back from the GPU.
   uint64_t last_pair_count() const;
+  uint64_t last_node_visits() const;
+  float alpha() const { return alpha_; }
 
  private:
   void record_walk(gpu::Sequence& seq);
   gpu::Context* ctx_;
   AdvectionOptions options_;
+  float alpha_;
   uint32_t n_;
   fields::GpuEmbedding embedding_;
   octree::MortonBox box_;
@@ -63,7 +69,7 @@ class ParticleSystem {
   gpu::Reduce reduce_;
   gpu::Kernel advect_;
   gpu::Buffer<glm::vec4> particles_, walk_result_, node_moments_;
-  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, lost_;
+  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, visits_, lost_;
   gpu::Buffer<uint64_t> feature_masks_, keys_;
   gpu::Buffer<glm::uvec4> nodes_;
   gpu::Buffer<glm::uvec2> level_info_;

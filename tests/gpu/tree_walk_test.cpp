@@ -29,7 +29,8 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   octree::TreeWalk tree_walk(ctx);
   const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
   gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), m(ctx, octree::OctreeMoments::kMomentsPerNode * capacity, "moments"), result(ctx, n, "result");
-  gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), counts(ctx, n, "counts");
+  gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), counts(ctx, n, "counts"),
+      visits(ctx, n, "visits");
   gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
   gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
   gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
@@ -39,7 +40,7 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
   seq.fill(counts, 0);
   seq.barrier();
-  tree_walk.record(seq, nodes, m, order, pb, fb, mb, result, counts, n, walkers);
+  tree_walk.record(seq, nodes, m, order, pb, fb, mb, result, counts, visits, n, walkers);
   seq.submit_and_wait();
   return {result.download(), counts.download()};
 }

@@ -43,8 +43,8 @@ int main(int argc, char** argv) {
     auto F = fields::build_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
     std::printf("Particle iterations on %s, sphere R = 40 voxels, %d iterations per run\n", ctx.info().name.c_str(),
                 iterations);
-    std::printf("%-10s %-8s %10s %12s %14s %12s %14s\n", "particles", "walk", "ms/iter", "walk ms/iter",
-                "Mpairs/s", "pairs/part", "final energy");
+    std::printf("%-10s %-8s %10s %12s %14s %12s %12s %14s\n", "particles", "walk", "ms/iter", "walk ms/iter",
+                "Mpairs/s", "pairs/part", "nodes/part", "final energy");
     for (uint32_t n : counts) {
       const float h = float(std::sqrt(4.0 * M_PI * 40.0 * 40.0 / (0.866 * n)));
       for (auto& p : F.embedding.fine) p.w = h;
@@ -63,11 +63,12 @@ int main(int argc, char** argv) {
         system.step();  // warm-up (pipelines, first allocation touches)
         ctx.clear_profile();
         double energy = 0;
-        uint64_t pairs = 0;
+        uint64_t pairs = 0, visits = 0;
         const auto t0 = std::chrono::steady_clock::now();
         for (int it = 0; it < iterations; ++it) {
           energy = system.step().energy;
           pairs += system.last_pair_count();
+          visits += system.last_node_visits();
         }
         const double wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         double walk_ms = 0;
@@ -75,12 +76,15 @@ int main(int argc, char** argv) {
         if (ctx.profile().count("tree_walk")) walk_ms = ctx.profile().at("tree_walk").total_ms;
         const double per_iter = wall_ms / iterations;
         const double mpairs = double(pairs) / (walk_ms > 0 ? walk_ms : wall_ms) / 1e3;
-        std::printf("%-10u %-8s %10.1f %12.1f %14.2f %12.1f %14.6g\n", n, mode > 0 ? "theta" : "exact", per_iter,
-                    walk_ms / iterations, mpairs, double(pairs) / double(iterations) / double(n), energy);
+        const double nodes_per_particle = double(visits) / double(iterations) / double(n);
+        std::printf("%-10u %-8s %10.1f %12.1f %14.2f %12.1f %12.1f %14.6g\n", n, mode > 0 ? "theta" : "exact", per_iter,
+                    walk_ms / iterations, mpairs, double(pairs) / double(iterations) / double(n), nodes_per_particle,
+                    energy);
         const nlohmann::json j = {{"benchmark", "particles"}, {"device", ctx.info().name}, {"particles", n},
                                   {"mode", mode > 0 ? "theta" : "exact"}, {"theta", mode}, {"iterations", iterations},
                                   {"ms_per_iteration", per_iter}, {"walk_ms_per_iteration", walk_ms / iterations},
-                                  {"mpairs_per_s", mpairs}, {"final_energy", energy}, {"kernels_ms", kernels}};
+                                  {"mpairs_per_s", mpairs}, {"nodes_per_particle", nodes_per_particle},
+                                  {"final_energy", energy}, {"kernels_ms", kernels}};
         std::cout << j.dump() << '\n';
       }
     }
