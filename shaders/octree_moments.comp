@@ -5,8 +5,9 @@
 // their particles, internal nodes from their (at most 8) children.
 // Run from level 21 up to the root.
 // Bindings: 0 nodes uvec4[]; 1 level_info uvec2[22]; 2 order uint[n] (Morton order -> particle); 3 particles vec4[]
-//           (xyz position, w sizing h); 4 moments vec4[4 * nodes]: (box min, min h), (box max, 0), (centre, count),
-//           (AND mask low, high word as float bits, 0, 0); 5 features uint[n]; 6 feature_masks uvec2[].
+//           (xyz position, w sizing h); 4-7 the moments, one vec4 per node in each: lo (box min, min h), hi (box max,
+//           0), com (centre, count), and_mask (AND mask low, high word as float bits, 0, 0) (four buffers so that each
+//           stays within maxStorageBufferRange for a million particles); 8 features uint[n]; 9 feature_masks uvec2[].
 // Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
 // Loops: at most LEAF_LOOP particles (more only in a level-21 leaf, whose particles share one 63-bit key, i.e. one
 // position to 2^-21 of the box) or 8 children. Reference: ref::octree_moments.
@@ -18,9 +19,12 @@ layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
 layout(std430, binding = 1) readonly buffer LevelInfo { uvec2 level_info[]; };
 layout(std430, binding = 2) readonly buffer Order { uint order[]; };
 layout(std430, binding = 3) readonly buffer Particles { vec4 particles[]; };
-layout(std430, binding = 4) buffer Moments { vec4 moments[]; };
-layout(std430, binding = 5) readonly buffer Features { uint features[]; };
-layout(std430, binding = 6) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
+layout(std430, binding = 4) buffer MomentsLo { vec4 m_lo[]; };
+layout(std430, binding = 5) buffer MomentsHi { vec4 m_hi[]; };
+layout(std430, binding = 6) buffer MomentsCom { vec4 m_com[]; };
+layout(std430, binding = 7) buffer MomentsMask { vec4 m_mask[]; };
+layout(std430, binding = 8) readonly buffer Features { uint features[]; };
+layout(std430, binding = 9) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
 layout(push_constant) uniform Push { uint level; } pc;
 
 const uint LEAF_LOOP = 4096;
@@ -52,8 +56,8 @@ void main() {
   } else {
     for (uint c = 0; c < children; ++c) {
       const uint child = node.z + c;
-      const vec4 a = moments[4 * child], b = moments[4 * child + 1], com = moments[4 * child + 2];
-      and_mask &= floatBitsToUint(moments[4 * child + 3].xy);
+      const vec4 a = m_lo[child], b = m_hi[child], com = m_com[child];
+      and_mask &= floatBitsToUint(m_mask[child].xy);
       lo = min(lo, a.xyz);
       hi = max(hi, b.xyz);
       min_h = min(min_h, a.w);
@@ -62,8 +66,8 @@ void main() {
     }
     if (total > 0.0) sum /= total;
   }
-  moments[4 * id] = vec4(lo, min_h);
-  moments[4 * id + 1] = vec4(hi, 0.0);
-  moments[4 * id + 2] = vec4(sum, total);
-  moments[4 * id + 3] = vec4(uintBitsToFloat(and_mask), 0.0, 0.0);
+  m_lo[id] = vec4(lo, min_h);
+  m_hi[id] = vec4(hi, 0.0);
+  m_com[id] = vec4(sum, total);
+  m_mask[id] = vec4(uintBitsToFloat(and_mask), 0.0, 0.0);
 }

@@ -19,14 +19,17 @@
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
-layout(std430, binding = 1) readonly buffer Moments { vec4 moments[]; };
-layout(std430, binding = 2) readonly buffer Order { uint order[]; };
-layout(std430, binding = 3) readonly buffer Particles { vec4 particles[]; };
-layout(std430, binding = 4) readonly buffer Features { uint features[]; };
-layout(std430, binding = 5) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
-layout(std430, binding = 6) writeonly buffer Result { vec4 result[]; };
-layout(std430, binding = 7) writeonly buffer Counts { uint counts[]; };
-layout(std430, binding = 8) writeonly buffer Visits { uint visits[]; };
+layout(std430, binding = 1) readonly buffer MomentsLo { vec4 m_lo[]; };
+layout(std430, binding = 2) readonly buffer MomentsHi { vec4 m_hi[]; };
+layout(std430, binding = 3) readonly buffer MomentsCom { vec4 m_com[]; };
+layout(std430, binding = 4) readonly buffer MomentsMask { vec4 m_mask[]; };
+layout(std430, binding = 5) readonly buffer Order { uint order[]; };
+layout(std430, binding = 6) readonly buffer Particles { vec4 particles[]; };
+layout(std430, binding = 7) readonly buffer Features { uint features[]; };
+layout(std430, binding = 8) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
+layout(std430, binding = 9) writeonly buffer Result { vec4 result[]; };
+layout(std430, binding = 10) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 11) writeonly buffer Visits { uint visits[]; };
 layout(push_constant) uniform Push { uint walkers; float theta; } pc;
 
 const float PI = 3.14159265358979;
@@ -53,18 +56,18 @@ void main() {
     const uint id = stack[--sp];
     ++work;
     ++visited;
-    const vec3 lo = moments[4 * id].xyz, up = moments[4 * id + 1].xyz;
+    const vec3 lo = m_lo[id].xyz, up = m_hi[id].xyz;
     const vec3 outside = max(max(lo - p, p - up), vec3(0.0));
     const float box_distance2 = dot(outside, outside);
     if (box_distance2 > cutoff * cutoff) continue;
     if (pc.theta > 0.0 && box_distance2 > 0.0) {
-      const vec4 com = moments[4 * id + 2];
+      const vec4 com = m_com[id];
       const vec3 extent = up - lo;
       const vec3 delta = p - com.xyz;
       const float r = length(delta);
-      const uvec2 node_mask = floatBitsToUint(moments[4 * id + 3].xy);
+      const uvec2 node_mask = floatBitsToUint(m_mask[id].xy);
       if (max(extent.x, max(extent.y, extent.z)) < pc.theta * r && (node_mask & mask) == mask) {
-        const float scale = SUPPORT * min(hi_, moments[4 * id].w);
+        const float scale = SUPPORT * min(hi_, m_lo[id].w);
         const float d = max(r / scale, 1e-3);
         if (d < 1.0) {
           pairs += uint(com.w);

@@ -43,14 +43,16 @@ OctreeMoments::OctreeMoments(gpu::Context& ctx) : kernel_(ctx, shaders::octree_m
 void OctreeMoments::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes,
                            const gpu::Buffer<glm::uvec2>& level_info, const gpu::Buffer<uint32_t>& order,
                            const gpu::Buffer<glm::vec4>& particles, const gpu::Buffer<uint32_t>& features,
-                           const gpu::Buffer<uint64_t>& feature_masks, const gpu::Buffer<glm::vec4>& moments,
+                           const gpu::Buffer<uint64_t>& feature_masks, const NodeMoments& moments,
                            uint32_t n) const {
-  if (moments.size() < kMomentsPerNode * nodes.size())
-    throw gpu::Error("octree moments: the moments buffer needs 4 entries per node");
+  if (moments.lo.size() < nodes.size()) throw gpu::Error("octree moments: the moment buffers need one entry per node");
   // A level has at most n nodes (disjoint particle ranges), and the root level one.
   for (int level = 21; level >= 0; --level) {
     const struct { uint32_t level; } push{uint32_t(level)};
-    seq.dispatch(kernel_, {nodes, level_info, order, particles, moments, features, feature_masks}, push,
+    seq.dispatch(kernel_,
+                 {nodes, level_info, order, particles, moments.lo, moments.hi, moments.com, moments.and_mask, features,
+                  feature_masks},
+                 push,
                  std::max<uint32_t>(n, 1))
         .barrier();
   }

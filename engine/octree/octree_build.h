@@ -26,6 +26,16 @@ class OctreeBuild {
   gpu::Kernel split_, level_, children_;
 };
 
+// Per-node moments, one buffer per quantity so that each stays within maxStorageBufferRange for a million particles:
+// lo (box min, min h), hi (box max, 0), com (centre of mass, count), and_mask (AND of the particles' feature masks as
+// two float-bit words).
+struct NodeMoments {
+  NodeMoments(gpu::Context& ctx, size_t nodes)
+      : lo(ctx, nodes, "node box min"), hi(ctx, nodes, "node box max"), com(ctx, nodes, "node centre of mass"),
+        and_mask(ctx, nodes, "node feature mask") {}
+  gpu::Buffer<glm::vec4> lo, hi, com, and_mask;
+};
+
 // Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
 // one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
 class OctreeMoments {
@@ -33,13 +43,10 @@ class OctreeMoments {
   explicit OctreeMoments(gpu::Context& ctx);
   // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h;
   // features / feature_masks: each particle's feature and each feature's material set (64-bit mask).
-  // moments: kMomentsPerNode per node capacity: (box min, min h), (box max, 0), (centre of mass, count),
-  // (AND of the feature masks as float bits).
-  static constexpr size_t kMomentsPerNode = 4;
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
               const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-              const gpu::Buffer<glm::vec4>& moments, uint32_t n) const;
+              const NodeMoments& moments, uint32_t n) const;
 
  private:
   gpu::Kernel kernel_;

@@ -8,7 +8,7 @@ namespace cpmesh::octree {
 
 TreeWalk::TreeWalk(gpu::Context& ctx) : kernel_(ctx, shaders::tree_walk) {}
 
-void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::vec4>& moments,
+void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
                       const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
                       const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,
@@ -22,7 +22,8 @@ void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, 
     uint32_t walkers;
     float theta;
   } push{walkers, theta};
-  seq.dispatch(kernel_, {nodes, moments, order, particles, features, feature_masks, result, counts, visits}, push, walkers);
+  seq.dispatch(kernel_, {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features, feature_masks, result,
+                          counts, visits}, push, walkers);
 }
 
 }  // namespace cpmesh::octree

@@ -2,7 +2,7 @@
 // Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy).
 #include <glm/glm.hpp>
 
-#include "gpu/sequence.h"
+#include "octree/octree_build.h"
 
 namespace cpmesh::octree {
 
@@ -12,7 +12,7 @@ class TreeWalk {
   // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out;
   // visits[i] = octree nodes visited.
   // feature_masks: per feature, the set of its materials as a 64-bit mask.
-  void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::vec4>& moments,
+  void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
               const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
               const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,

@@ -68,7 +68,8 @@ class ParticleSystem {
   octree::TreeWalk walk_;
   gpu::Reduce reduce_;
   gpu::Kernel advect_;
-  gpu::Buffer<glm::vec4> particles_, walk_result_, node_moments_;
+  gpu::Buffer<glm::vec4> particles_, walk_result_;
+  octree::NodeMoments node_moments_;
   gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, visits_, lost_;
   gpu::Buffer<uint64_t> feature_masks_, keys_;
   gpu::Buffer<glm::uvec4> nodes_;

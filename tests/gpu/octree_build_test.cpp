@@ -98,7 +98,7 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
     gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
     gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
-    gpu::Buffer<glm::vec4> m(ctx, octree::OctreeMoments::kMomentsPerNode * capacity, "moments");
+    octree::NodeMoments m(ctx, capacity);
     std::vector<uint32_t> features(n);
     for (uint32_t i = 0; i < n; ++i) features[i] = i % 3;
     const std::vector<uint64_t> masks = {0b011, 0b111, 0b110};
@@ -113,7 +113,18 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     const auto tree = ref::build_octree(keys.download(), leaf);
     const auto got_order = order.download();
     const auto want = ref::octree_moments(tree, got_order, particles, features, masks);
-    const auto got = m.download(0, want.size());
+    std::vector<glm::vec4> got(want.size());  // interleaved like the reference: lo, hi, com, mask per node
+    {
+      const size_t nodes_used = want.size() / 4;
+      const auto lo = m.lo.download(0, nodes_used), hi = m.hi.download(0, nodes_used),
+                 com = m.com.download(0, nodes_used), mask = m.and_mask.download(0, nodes_used);
+      for (size_t i = 0; i < nodes_used; ++i) {
+        got[4 * i] = lo[i];
+        got[4 * i + 1] = hi[i];
+        got[4 * i + 2] = com[i];
+        got[4 * i + 3] = mask[i];
+      }
+    }
     REQUIRE(info.download() == tree.level_info);
     float worst = 0;
     for (size_t i = 0; i < want.size(); ++i) worst = std::max(worst, glm::length(got[i] - want[i]));

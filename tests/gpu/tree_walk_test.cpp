@@ -28,7 +28,8 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   octree::OctreeMoments moments(ctx);
   octree::TreeWalk tree_walk(ctx);
   const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
-  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), m(ctx, octree::OctreeMoments::kMomentsPerNode * capacity, "moments"), result(ctx, n, "result");
+  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), result(ctx, n, "result");
+  octree::NodeMoments m(ctx, capacity);
   gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), counts(ctx, n, "counts"),
       visits(ctx, n, "visits");
   gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
