@@ -200,12 +200,11 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
   std::vector<uint16_t> label_index(grid.voxel_count());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v < r.end(); ++v) {
-      const int i = int(v % size_t(grid.dims.x)), j = int((v / size_t(grid.dims.x)) % size_t(grid.dims.y));
-      const int kk = int(v / (size_t(grid.dims.x) * size_t(grid.dims.y)));
+      const glm::ivec3 c = grid.voxel(v);
       int best = 0;
       float bv = -1e30f;
       for (int mm = 0; mm < M; ++mm) {
-        const float f = F.fields[size_t(mm)].at(i, j, kk);
+        const float f = F.fields[size_t(mm)].at(c.x, c.y, c.z);
         if (f > bv) {
           bv = f;
           best = mm;
@@ -344,8 +343,7 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
     for (size_t b = r.begin(); b < r.end(); ++b) {
       const size_t cell = size_t(cells[b] >> 16);
       const uint32_t fid = uint32_t(cells[b] & 0xffff);
-      const glm::ivec3 c(int(cell % size_t(grid.dims.x)), int((cell / size_t(grid.dims.x)) % size_t(grid.dims.y)),
-                         int(cell / (size_t(grid.dims.x) * size_t(grid.dims.y))));
+      const glm::ivec3 c = grid.voxel(cell);
       for (int q = 0; q < per_block; ++q) {
         const glm::dvec3 ijk = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
         const glm::dvec3 x0 = grid.local(ijk);

@@ -20,6 +20,10 @@ struct Grid {
 
   size_t voxel_count() const { return size_t(dims.x) * size_t(dims.y) * size_t(dims.z); }
   size_t index(int i, int j, int k) const { return (size_t(k) * size_t(dims.y) + size_t(j)) * size_t(dims.x) + size_t(i); }
+  glm::ivec3 voxel(size_t index) const {  // the inverse of index()
+    const size_t nx = size_t(dims.x), ny = size_t(dims.y);
+    return glm::ivec3(int(index % nx), int((index / nx) % ny), int(index / (nx * ny)));
+  }
   bool inside(int i, int j, int k) const {
     return i >= 0 && j >= 0 && k >= 0 && i < dims.x && j < dims.y && k < dims.z;
   }

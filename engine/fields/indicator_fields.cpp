@@ -123,16 +123,16 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
     const glm::ivec3 n = crop.size();
     Grid cgrid{n, grid.spacing, grid.origin};
     const size_t cn = cgrid.voxel_count();
-    auto label_at = [&](size_t ci) {
-      const int i = int(ci % size_t(n.x)), j = int((ci / size_t(n.x)) % size_t(n.y)), k = int(ci / (size_t(n.x) * size_t(n.y)));
-      return labels[grid.index(crop.lo.x + i, crop.lo.y + j, crop.lo.z + k)];
+    auto full_index = [&](size_t ci) {  // crop voxel -> the volume's voxel index
+      const glm::ivec3 v = crop.lo + cgrid.voxel(ci);
+      return grid.index(v.x, v.y, v.z);
     };
     constexpr float inf = std::numeric_limits<float>::infinity();
     std::vector<float> to_inside(cn), to_outside(cn);
     std::vector<uint8_t> inside(cn);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t ci = r.begin(); ci < r.end(); ++ci) {
-        inside[ci] = label_at(ci) == label;
+        inside[ci] = labels[full_index(ci)] == label;
         to_inside[ci] = inside[ci] ? 0.0f : inf;
         to_outside[ci] = inside[ci] ? inf : 0.0f;
       }
@@ -156,8 +156,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t ci = r.begin(); ci < r.end(); ++ci) {
           if (!raw.empty()) {
-            const int i = int(ci % size_t(n.x)), j = int((ci / size_t(n.x)) % size_t(n.y)), k = int(ci / (size_t(n.x) * size_t(n.y)));
-            const double d = std::sqrt(double(junction_distance[grid.index(crop.lo.x + i, crop.lo.y + j, crop.lo.z + k)]));
+            const double d = std::sqrt(double(junction_distance[full_index(ci)]));
             const double w = std::clamp(d / fade, 0.0, 1.0);
             const double smooth = 0.3 + 0.7 * w * w * (3 - 2 * w);  // never fully raw: 30% keeps the staircase down
             phi[ci] = float(smooth * phi[ci] + (1 - smooth) * raw[ci]);

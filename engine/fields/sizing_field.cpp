@@ -109,10 +109,6 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   const double h_max = options.h_max > 0 ? options.h_max : 4.0 * grid.min_spacing();
   const int per_block = E.sub * E.sub * E.sub;
   const size_t blocks = E.block_count();
-  const uint64_t nx = uint64_t(grid.dims.x), nxy = uint64_t(grid.dims.x) * uint64_t(grid.dims.y);
-  auto cell_ijk = [&](uint64_t cell) {
-    return glm::ivec3(int(cell % nx), int((cell / nx) % uint64_t(grid.dims.y)), int(cell / nxy));
-  };
 
   // Which (cell, feature) each block is.
   std::vector<uint64_t> block_key(blocks);
@@ -133,7 +129,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       // Only blocks whose cell touches the surface measure it; the others (further along the normals) would
       // repeat the same closest points.
       const glm::dvec3 p(glm::vec3(E.fine[b * size_t(per_block)]));
-      const glm::dvec3 centre = grid.local(glm::dvec3(cell_ijk(block_key[b] >> 16)));
+      const glm::dvec3 centre = grid.local(glm::dvec3(grid.voxel(block_key[b] >> 16)));
       if (glm::length((p - centre) / grid.spacing) > 0.87) continue;
       is_interface[b] = 1;
       const BrickField& fa = F.fields[feature.materials[0]];
@@ -141,7 +137,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       const glm::dvec3 g = gradient(fa, p, grid.spacing) - gradient(fb, p, grid.spacing);
       if (glm::length(g) < 1e-12) continue;
       points.clear();
-      const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
+      const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
       for (int dz = -kFitCells; dz <= kFitCells; ++dz)
         for (int dy = -kFitCells; dy <= kFitCells; ++dy)
           for (int dx = -kFitCells; dx <= kFitCells; ++dx) {
@@ -166,7 +162,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t b = r.begin(); b < r.end(); ++b) {
         if (!is_interface[b]) continue;
-        const glm::ivec3 v = cell_ijk(block_key[b] >> 16);
+        const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
         const uint32_t fid = uint32_t(block_key[b] & 0xffff);
         glm::dmat3 sum(0.0);
         int n = 0;
@@ -222,7 +218,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     const auto [h, c] = queue.top();
     queue.pop();
     if (h > hc[c]) continue;
-    const glm::ivec3 v = cell_ijk(cells[c]);
+    const glm::ivec3 v = grid.voxel(cells[c]);
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {

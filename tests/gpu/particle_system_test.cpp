@@ -126,8 +126,7 @@ void seed_all_features(const fields::ClosestPointEmbedding& E, std::vector<glm::
       const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
       if (E.features[f].kind != kind) continue;
       const uint64_t cell = E.keys[slot] >> 16;
-      const glm::vec3 centre(float(cell % uint64_t(E.grid.dims.x)), float((cell / uint64_t(E.grid.dims.x)) % uint64_t(E.grid.dims.y)),
-                             float(cell / (uint64_t(E.grid.dims.x) * uint64_t(E.grid.dims.y))));
+      const glm::vec3 centre(E.grid.voxel(cell));
       const glm::vec4 cp = E.fine[size_t(E.blocks[slot]) * 8];
       if (glm::length(glm::vec3(cp) - centre) > 0.5f) continue;
       bool near = false;

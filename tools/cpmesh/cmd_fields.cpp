@@ -100,9 +100,7 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
               for (size_t slot = 0; slot < E.keys.size(); ++slot) {
                 if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
                 const uint64_t cell = E.keys[slot] >> 16;
-                const glm::dvec3 centre = grid.local(glm::dvec3(
-                    double(cell % uint64_t(grid.dims.x)), double((cell / uint64_t(grid.dims.x)) % uint64_t(grid.dims.y)),
-                    double(cell / (uint64_t(grid.dims.x) * uint64_t(grid.dims.y)))));
+                const glm::dvec3 centre = grid.local(glm::dvec3(grid.voxel(cell)));
                 const glm::vec4 p = E.fine[size_t(E.blocks[slot]) * size_t(per_block)];
                 if (glm::length((glm::dvec3(glm::vec3(p)) - centre) / grid.spacing) > 0.87) continue;
                 const glm::dvec3 phys = grid.to_physical(glm::dvec3(glm::vec3(p)));
