@@ -162,6 +162,12 @@ uint32_t select_device(const std::vector<DeviceInfo>& all, const std::string& se
   return best->index;
 }
 
+uint32_t choose_device(const std::vector<DeviceInfo>& all, const std::string& option) {
+  const char* env = std::getenv("CPMESH_DEVICE");
+  if (option.empty() && env && *env) return select_device(all, env, "CPMESH_DEVICE");
+  return select_device(all, option, "--device");
+}
+
 namespace {
 
 VKAPI_ATTR VkBool32 VKAPI_CALL on_validation_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -218,12 +224,7 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
   vk::raii::PhysicalDevices physical(instance_);
   std::vector<DeviceInfo> all;
   for (uint32_t i = 0; i < physical.size(); ++i) all.push_back(describe(physical[i], i));
-  std::string selector = options.device, source = "--device";
-  if (selector.empty() && std::getenv("CPMESH_DEVICE")) {
-    selector = std::getenv("CPMESH_DEVICE");
-    source = "CPMESH_DEVICE";
-  }
-  const uint32_t chosen = select_device(all, selector, source);
+  const uint32_t chosen = choose_device(all, options.device);
   info_ = all[chosen];
   if (options.max_workgroups_x)
     info_.max_workgroup_count[0] = std::min(info_.max_workgroup_count[0], options.max_workgroups_x);

@@ -53,6 +53,9 @@ std::vector<DeviceInfo> list_devices();
 // where it came from, for messages) or, when empty, the best usable device by type. Throws gpu::Error when none fits.
 uint32_t select_device(const std::vector<DeviceInfo>& devices, const std::string& selector,
                        const std::string& source = "--device");
+// The device a Context made with ContextOptions::device = `option` uses: the option, else CPMESH_DEVICE, else the
+// automatic choice (select_device).
+uint32_t choose_device(const std::vector<DeviceInfo>& devices, const std::string& option);
 
 struct ContextOptions {
   std::string device;       // "" = CPMESH_DEVICE or automatic; else an index or a name substring

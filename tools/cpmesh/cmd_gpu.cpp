@@ -1,6 +1,5 @@
 // `cpmesh devices` and `cpmesh selftest`.
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <memory>
 
@@ -22,15 +21,10 @@ Command add_devices_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--json", *json, "Print JSON instead of text");
   return {sub, [&g, json] {
             const auto devices = gpu::list_devices();
-            std::string selector = g.device, source = "--device";
-            if (selector.empty() && std::getenv("CPMESH_DEVICE")) {
-              selector = std::getenv("CPMESH_DEVICE");
-              source = "CPMESH_DEVICE";
-            }
             int chosen = -1;
             std::string choice_error;
             try {
-              chosen = int(gpu::select_device(devices, selector, source));
+              chosen = int(gpu::choose_device(devices, g.device));
             } catch (const gpu::Error& e) {
               choice_error = e.what();
             }
