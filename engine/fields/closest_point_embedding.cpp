@@ -114,6 +114,21 @@ uint32_t count_components(std::vector<glm::ivec3>& cells) {
   return components;
 }
 
+// Calls f(set, size) for every subset of 2 to 4 of items[0..n), n <= 8: the material sets that can be a feature where
+// those materials meet.
+template <class T, class F>
+void for_each_material_subset(const T* items, int n, F&& f) {
+  std::vector<int> ms;
+  for (int mask = 1; mask < (1 << n); ++mask) {
+    const int bits = __builtin_popcount(unsigned(mask));
+    if (bits < 2 || bits > 4) continue;
+    ms.clear();
+    for (int b = 0; b < n; ++b)
+      if (mask & (1 << b)) ms.push_back(int(items[b]));
+    f(set_of(ms), bits);
+  }
+}
+
 FeatureKind kind_of(size_t count) {
   return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
 }
@@ -217,26 +232,13 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
     for (int j = 0; j + 1 < grid.dims.y; ++j)
       for (int i = 0; i + 1 < grid.dims.x; ++i) {
         uint16_t present[8];
-        int n = 0;
-        for (int c = 0; c < 8; ++c) {
-          const uint16_t l = label_index[grid.index(i + (c & 1), j + ((c >> 1) & 1), kk + (c >> 2))];
-          if (std::find(present, present + n, l) == present + n) present[n++] = l;
-        }
-        if (n < 2) continue;
-        for (int a = 1; a < n; ++a)  // insertion sort (n <= 8)
-          for (int b = a; b > 0 && present[b - 1] > present[b]; --b) std::swap(present[b - 1], present[b]);
+        const int n = grid.corner_labels(i, j, kk, [&](size_t v) { return label_index[v]; }, present);
         // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
-        for (int mask = 1; mask < (1 << n); ++mask) {
-          const int bits = __builtin_popcount(unsigned(mask));
-          if (bits < 2 || bits > 4) continue;
-          std::vector<int> ms;
-          for (int b = 0; b < n; ++b)
-            if (mask & (1 << b)) ms.push_back(present[b]);
-          const MaterialSet s = set_of(ms);
+        for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
           sets.insert(s);
           if (bits == 4) quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
           if (bits == 3) curve_cells[s].push_back(glm::ivec3(i, j, kk));
-        }
+        });
       }
   for (size_t count : {2u, 3u, 4u})
     for (const auto& s : sets) {
@@ -294,18 +296,11 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
             if (f > -reach) near.push_back(mm);
             if (f > -2.0 * reach) ++around;
           }
-          if (near.size() < 2) continue;
-          const int n = int(std::min<size_t>(near.size(), 8));
-          for (int mask = 1; mask < (1 << n); ++mask) {
-            const int bits = __builtin_popcount(unsigned(mask));
-            if (bits < 2 || bits > 4) continue;
-            std::vector<int> ms;
-            for (int b = 0; b < n; ++b)
-              if (mask & (1 << b)) ms.push_back(near[size_t(b)]);
-            const auto it = feature_of.find(set_of(ms));
+          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
+            const auto it = feature_of.find(s);
             if (it != feature_of.end())
               out.push_back({(uint64_t(grid.index(i, j, kk)) << 16) | it->second, around == bits});
-          }
+          });
         }
   });
   std::vector<CellEntry> entries;

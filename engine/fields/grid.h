@@ -31,6 +31,21 @@ struct Grid {
   glm::dvec3 to_index(const glm::dvec3& local_pos) const { return local_pos / spacing; }
   glm::dvec3 to_physical(const glm::dvec3& local_pos) const { return local_pos + origin; }
   double min_spacing() const { return std::min(spacing.x, std::min(spacing.y, spacing.z)); }
+
+  // The distinct labels among the 8 voxels around the grid corner between voxel (i, j, k) and (i+1, j+1, k+1) (the
+  // dual cell where interfaces, curves and points meet), in order of first appearance; returns how many.
+  // label_of(voxel index) gives a voxel's label. Needs i + 1, j + 1, k + 1 inside the grid.
+  template <class LabelOf>
+  int corner_labels(int i, int j, int k, LabelOf&& label_of, uint16_t out[8]) const {
+    int n = 0;
+    for (int c = 0; c < 8; ++c) {
+      const uint16_t l = uint16_t(label_of(index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))));
+      bool seen = false;
+      for (int a = 0; a < n; ++a) seen = seen || out[a] == l;
+      if (!seen) out[n++] = l;
+    }
+    return n;
+  }
 };
 
 }  // namespace cpmesh::fields

@@ -99,12 +99,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       for (int j = 0; j + 1 < grid.dims.y; ++j)
         for (int i = 0; i + 1 < grid.dims.x; ++i) {
           uint16_t seen[8];
-          int count = 0;
-          for (int c = 0; c < 8; ++c) {
-            const uint16_t l = labels[grid.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))];
-            if (std::find(seen, seen + count, l) == seen + count) seen[count++] = l;
-          }
-          if (count < 3) continue;
+          if (grid.corner_labels(i, j, k, [&](size_t v) { return labels[v]; }, seen) < 3) continue;
           for (int c = 0; c < 8; ++c) junction_distance[grid.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] = 0;
         }
     squared_distance_transform(grid, junction_distance);
