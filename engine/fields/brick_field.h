@@ -35,6 +35,13 @@ class BrickField {
   // through the samples. `gradient` (optional) receives d/d(index).
   double sample_cubic(const glm::dvec3& ijk, glm::dvec3* gradient = nullptr) const;
   double sample_linear(const glm::dvec3& ijk) const;
+  // sample_cubic at a point in local coordinates (fields/grid.h), with the gradient in local coordinates too.
+  double sample_cubic_local(const glm::dvec3& local, glm::dvec3* gradient = nullptr) const {
+    glm::dvec3 g;
+    const double v = sample_cubic(local / grid_.spacing, gradient ? &g : nullptr);
+    if (gradient) *gradient = g / grid_.spacing;
+    return v;
+  }
   // sample_cubic of several fields on the same grid at one point, sharing the weights and the gather's indexing (the
   // Newton projections evaluate two to four fields at every step).
   static void sample_cubic_many(const BrickField* const* fields, int count, const glm::dvec3& ijk, double* values,

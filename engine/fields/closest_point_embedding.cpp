@@ -18,14 +18,6 @@ namespace {
 using MaterialSet = std::array<uint16_t, 4>;
 constexpr uint16_t kNone = 0xffff;
 
-// Indicator value and gradient (local coordinates) of material m.
-double eval(const IndicatorFields& F, int m, const glm::dvec3& local, glm::dvec3& grad) {
-  glm::dvec3 gi;
-  const double v = F.fields[size_t(m)].sample_cubic(local / F.grid.spacing, &gi);
-  grad = gi / F.grid.spacing;
-  return v;
-}
-
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
 bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol) {
   const double max_step = F.grid.min_spacing();
@@ -177,15 +169,15 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
     // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
     // rather than the end of the gradient path; every round ends with a converged Newton solve.
     glm::dvec3 g0, ga, gb;
-    eval(F, m[0], x, g0);
-    eval(F, m[1], x, ga);
+    F.fields[size_t(m[0])].sample_cubic_local(x, &g0);
+    F.fields[size_t(m[1])].sample_cubic_local(x, &ga);
     const glm::dvec3 d = x0 - x;
     glm::dvec3 next;
     if (k == 1) {
       const glm::dvec3 n = glm::normalize(g0 - ga);
       next = x + d - n * glm::dot(d, n);
     } else {
-      eval(F, m[2], x, gb);
+      F.fields[size_t(m[2])].sample_cubic_local(x, &gb);
       const glm::dvec3 t = glm::normalize(glm::cross(g0 - ga, g0 - gb));
       next = x + t * glm::dot(d, t);
     }
@@ -368,12 +360,12 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
           int m[4];
           const int count = materials_of(feat, m);
           glm::dvec3 unused;
-          const double own = eval(F, m[0], cp, unused);
+          const double own = F.fields[size_t(m[0])].sample_cubic_local(cp, &unused);
           int intruder = -1;
           double worst = own + 1e-4 * h;
           for (int mm = 0; mm < M; ++mm) {
             if (std::find(m, m + count, mm) != m + count) continue;
-            const double v = F.fields[size_t(mm)].sample_cubic(cp / grid.spacing);
+            const double v = F.fields[size_t(mm)].sample_cubic_local(cp);
             if (v > worst) {
               worst = v;
               intruder = mm;

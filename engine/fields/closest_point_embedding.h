@@ -62,6 +62,13 @@ struct ClosestPointEmbedding {
   // Block of (cell, feature), or -1.
   int64_t find_block(size_t cell, uint32_t feature) const;
   int feature_index(FeatureKind kind, std::array<uint16_t, 4> materials) const;
+  // Whether a block's cell touches its feature: the cell centre lies within half a voxel diagonal (0.87 voxel) of
+  // the closest point of the block's first fine point. One such block per surface spot: the blocks further along
+  // the normals repeat the same closest points.
+  bool touches_feature(size_t cell, size_t block) const {
+    const glm::dvec3 cp(glm::vec3(fine[block * size_t(sub * sub * sub)]));
+    return glm::length((cp - grid.local(glm::dvec3(grid.voxel(cell)))) / grid.spacing) <= 0.87;
+  }
 };
 
 uint32_t embedding_hash(uint64_t key);  // shared with shaders/cp_lookup.comp (same arithmetic)

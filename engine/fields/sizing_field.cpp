@@ -11,10 +11,10 @@ namespace cpmesh::fields {
 
 namespace {
 
-glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local, const glm::dvec3& spacing) {
+glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local) {
   glm::dvec3 g;
-  f.sample_cubic(local / spacing, &g);
-  return g / spacing;
+  f.sample_cubic_local(local, &g);
+  return g;
 }
 
 // Half the thickness of material m at p: the walk along the inward normal until it leaves m again. Near a
@@ -22,19 +22,19 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local, const glm::dve
 // drive h to zero along every triple curve; half the thickness along the normal measures thin parts (a layer of
 // thickness t gives t/2, the distance to its medial plane) without that. Thicker than the stored band can show:
 // infinity (does not limit h).
-double half_thickness(const BrickField& f, const glm::dvec3& p, const glm::dvec3& spacing, double band, double step) {
-  const glm::dvec3 g = gradient(f, p, spacing);
+double half_thickness(const BrickField& f, const glm::dvec3& p, double band, double step) {
+  const glm::dvec3 g = gradient(f, p);
   const double len = glm::length(g);
   constexpr double none = 1e300;
   if (len < 1e-12) return none;
   const glm::dvec3 n = g / len;  // into the material
   for (double t = step; t <= 2.0 * band; t += step) {
-    const double v = f.sample_cubic((p + t * n) / spacing);
+    const double v = f.sample_cubic_local(p + t * n);
     if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
     if (v < 0) {
       // A thin part's far side faces back (its normal opposes ours); a boundary met at an angle is the next patch
       // of a junction crease, which is sampled by the junction's own particles and does not make the part thin.
-      const glm::dvec3 exit = gradient(f, p + t * n, spacing);
+      const glm::dvec3 exit = gradient(f, p + t * n);
       const double exit_len = glm::length(exit);
       if (exit_len > 1e-12 && glm::dot(exit / exit_len, n) < -0.5) return 0.5 * (t - 0.5 * step);
       return none;
@@ -126,15 +126,13 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       const uint32_t fid = uint32_t(block_key[b] & 0xffff);
       const Feature& feature = E.features[fid];
       if (feature.kind != FeatureKind::interface) continue;
-      // Only blocks whose cell touches the surface measure it; the others (further along the normals) would
-      // repeat the same closest points.
+      // Only blocks whose cell touches the surface measure it.
+      if (!E.touches_feature(size_t(block_key[b] >> 16), b)) continue;
       const glm::dvec3 p(glm::vec3(E.fine[b * size_t(per_block)]));
-      const glm::dvec3 centre = grid.local(glm::dvec3(grid.voxel(block_key[b] >> 16)));
-      if (glm::length((p - centre) / grid.spacing) > 0.87) continue;
       is_interface[b] = 1;
       const BrickField& fa = F.fields[feature.materials[0]];
       const BrickField& fb = F.fields[feature.materials[1]];
-      const glm::dvec3 g = gradient(fa, p, grid.spacing) - gradient(fb, p, grid.spacing);
+      const glm::dvec3 g = gradient(fa, p) - gradient(fb, p);
       if (glm::length(g) < 1e-12) continue;
       points.clear();
       const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
@@ -143,14 +141,14 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
           for (int dx = -kFitCells; dx <= kFitCells; ++dx) {
             const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
             if (!grid.inside(w.x, w.y, w.z)) continue;
-            const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
-            if (nb < 0) continue;
-            const glm::dvec3 q(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
-            if (glm::length((q - grid.local(glm::dvec3(w))) / grid.spacing) <= 0.87) points.push_back(q);
+            const size_t cell = grid.index(w.x, w.y, w.z);
+            const int64_t nb = E.find_block(cell, fid);
+            if (nb >= 0 && E.touches_feature(cell, size_t(nb)))
+              points.emplace_back(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
           }
       shape[b] = fitted_shape(p, glm::normalize(g), points);
       const double step = 0.25 * grid.min_spacing();
-      ridge[b] = std::min(half_thickness(fa, p, grid.spacing, F.band, step), half_thickness(fb, p, grid.spacing, F.band, step));
+      ridge[b] = std::min(half_thickness(fa, p, F.band, step), half_thickness(fb, p, F.band, step));
     }
   });
 

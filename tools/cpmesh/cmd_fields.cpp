@@ -99,10 +99,8 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
               std::vector<float> feature_id, h;
               for (size_t slot = 0; slot < E.keys.size(); ++slot) {
                 if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
-                const uint64_t cell = E.keys[slot] >> 16;
-                const glm::dvec3 centre = grid.local(glm::dvec3(grid.voxel(cell)));
+                if (!E.touches_feature(size_t(E.keys[slot] >> 16), E.blocks[slot])) continue;
                 const glm::vec4 p = E.fine[size_t(E.blocks[slot]) * size_t(per_block)];
-                if (glm::length((glm::dvec3(glm::vec3(p)) - centre) / grid.spacing) > 0.87) continue;
                 const glm::dvec3 phys = grid.to_physical(glm::dvec3(glm::vec3(p)));
                 cloud.vertices.push_back({phys.x, phys.y, phys.z});
                 const uint32_t fid = uint32_t(E.keys[slot] & 0xffff);
