@@ -49,6 +49,80 @@ void gaussian_pass(std::vector<float>& f, const glm::ivec3& n, int axis, double 
   });
 }
 
+double smoothstep01(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+
+// r-tightening of one material's field (a dense crop of n voxels): a curvature-limited level-set flow
+//   phi_t = |grad phi| * sum_i (k_i - clamp(k_i, -1/r, 1/r)) * weight
+// with k_i the principal curvatures of the level sets (from the Hessian: the mean curvature div(grad phi/|grad phi|)
+// and the Gaussian curvature grad^T adj(Hess) grad / |grad|^4), clamped to the r-tube |phi - phi0| <= r. Convex
+// bumps sharper than r shrink, concave dents sharper than r fill, flat and gently curved surfaces do not move.
+// The flow for -phi is the flow for phi negated, so the two fields of an interface move together.
+// weight(ci) in [0, 1] fades the flow out (junctions, protected thin parts). Returns nothing; phi is updated.
+template <class Weight>
+void tighten_field(std::vector<float>& phi, const glm::ivec3& n, const glm::dvec3& spacing, double r, int iterations,
+                   double band, Weight weight) {
+  const double h = std::min({spacing.x, spacing.y, spacing.z});
+  const double kmax = 1.0 / r;
+  const double dt = 0.12 * h * h;  // explicit curvature flow: stable below h^2 / 6
+  const size_t sx = 1, sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
+  // The voxels the flow may touch: interior of the crop, within r + 2 voxels of the surface, weight > 0.
+  std::vector<size_t> active;
+  std::vector<float> w;
+  for (int k = 1; k + 1 < n.z; ++k)
+    for (int j = 1; j + 1 < n.y; ++j)
+      for (int i = 1; i + 1 < n.x; ++i) {
+        const size_t ci = size_t(k) * sz + size_t(j) * sy + size_t(i);
+        if (std::fabs(phi[ci]) >= r + 2 * h) continue;
+        const double wi = weight(ci);
+        if (wi <= 0) continue;
+        active.push_back(ci);
+        w.push_back(float(wi));
+      }
+  if (active.empty()) return;
+  std::vector<float> phi0(active.size()), next(active.size());
+  for (size_t a = 0; a < active.size(); ++a) phi0[a] = phi[active[a]];
+  const double ix = 1 / spacing.x, iy = 1 / spacing.y, iz = 1 / spacing.z;
+  for (int it = 0; it < iterations; ++it) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size()), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t a = range.begin(); a < range.end(); ++a) {
+        const float* p = phi.data() + active[a];
+        auto at = [&](long dx, long dy, long dz) { return double(p[dx * long(sx) + dy * long(sy) + dz * long(sz)]); };
+        const double c = at(0, 0, 0);
+        const double fx = 0.5 * (at(1, 0, 0) - at(-1, 0, 0)) * ix;
+        const double fy = 0.5 * (at(0, 1, 0) - at(0, -1, 0)) * iy;
+        const double fz = 0.5 * (at(0, 0, 1) - at(0, 0, -1)) * iz;
+        const double hxx = (at(1, 0, 0) - 2 * c + at(-1, 0, 0)) * ix * ix;
+        const double hyy = (at(0, 1, 0) - 2 * c + at(0, -1, 0)) * iy * iy;
+        const double hzz = (at(0, 0, 1) - 2 * c + at(0, 0, -1)) * iz * iz;
+        const double hxy = 0.25 * (at(1, 1, 0) - at(1, -1, 0) - at(-1, 1, 0) + at(-1, -1, 0)) * ix * iy;
+        const double hxz = 0.25 * (at(1, 0, 1) - at(1, 0, -1) - at(-1, 0, 1) + at(-1, 0, -1)) * ix * iz;
+        const double hyz = 0.25 * (at(0, 1, 1) - at(0, 1, -1) - at(0, -1, 1) + at(0, -1, -1)) * iy * iz;
+        const double g2 = fx * fx + fy * fy + fz * fz;
+        double value = c;
+        if (g2 > 1e-12) {
+          const double ghg = fx * fx * hxx + fy * fy * hyy + fz * fz * hzz +
+                             2 * (fx * fy * hxy + fx * fz * hxz + fy * fz * hyz);
+          const double ksum = (g2 * (hxx + hyy + hzz) - ghg) / (g2 * std::sqrt(g2));
+          const double gag = fx * fx * (hyy * hzz - hyz * hyz) + fy * fy * (hxx * hzz - hxz * hxz) +
+                             fz * fz * (hxx * hyy - hxy * hxy) +
+                             2 * (fx * fy * (hxz * hyz - hxy * hzz) + fx * fz * (hxy * hyz - hxz * hyy) +
+                                  fy * fz * (hxy * hxz - hxx * hyz));
+          const double gauss = gag / (g2 * g2);
+          const double disc = std::sqrt(std::max(0.25 * ksum * ksum - gauss, 0.0));
+          const double k1 = 0.5 * ksum + disc, k2 = 0.5 * ksum - disc;
+          const double excess = (k1 - std::clamp(k1, -kmax, kmax)) + (k2 - std::clamp(k2, -kmax, kmax));
+          value = c + dt * std::sqrt(g2) * excess * w[a];
+        }
+        next[a] = float(std::clamp(value, std::max(phi0[a] - r, -band), std::min(phi0[a] + r, band)));
+      }
+    });
+    for (size_t a = 0; a < active.size(); ++a) phi[active[a]] = next[a];
+  }
+}
+
 }  // namespace
 
 int IndicatorFields::material_at(const glm::dvec3& ijk) const {
@@ -106,15 +180,58 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   }
   const double fade = options.junction_fade * h;
   const double sigma_phys = options.smoothing_sigma * h;
-  const int margin = int(std::ceil(options.band + 3.0 * options.smoothing_sigma)) + 2;
+  const double tighten_r = options.tighten_radius * h;
+  const int margin = int(std::ceil(std::max(options.band + 3.0 * options.smoothing_sigma, 2.0 * options.tighten_radius))) + 2;
+  auto crop_of = [&](const Box& box) {
+    return Box{glm::max(box.lo - margin, glm::ivec3(0)), glm::min(box.hi + margin, grid.dims - 1)};
+  };
+
+  // Thin parts, protected from tightening: voxels of a material with no voxel at least r deep inside it (its "core")
+  // within 2r. Sheets and vessels thinner than about 2r and components smaller than r have no core; a cube's corners
+  // lie r*sqrt(3) from its core and are rounded. The flow fades in over r + 1 voxels around protected voxels, for
+  // every material, so no neighbour grows into a protected part either.
+  std::vector<float> protected_distance;
+  if (tighten_r > 0) {
+    protected_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
+    for (const auto& [label, info] : found) {
+      const Box crop = crop_of(info.second);
+      const glm::ivec3 n = crop.size();
+      Grid cgrid{n, grid.spacing, grid.origin};
+      const size_t cn = cgrid.voxel_count();
+      std::vector<float> depth(cn), to_core(cn);
+      auto full_index = [&](size_t ci) {
+        const glm::ivec3 v = crop.lo + cgrid.voxel(ci);
+        return grid.index(v.x, v.y, v.z);
+      };
+      for (size_t ci = 0; ci < cn; ++ci) depth[ci] = labels[full_index(ci)] == label ? std::numeric_limits<float>::infinity() : 0.0f;
+      squared_distance_transform(cgrid, depth);
+      for (size_t ci = 0; ci < cn; ++ci)
+        to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= tighten_r ? 0.0f
+                                                                                     : std::numeric_limits<float>::infinity();
+      squared_distance_transform(cgrid, to_core);
+      for (size_t ci = 0; ci < cn; ++ci)
+        if (depth[ci] > 0 && !(std::sqrt(double(to_core[ci])) <= 2.0 * tighten_r)) {
+          protected_distance[full_index(ci)] = 0;
+          ++out.protected_voxels;
+        }
+    }
+    squared_distance_transform(grid, protected_distance);
+  }
+  // Where the flow is allowed, in [0, 1]: away from junctions and protected thin parts.
+  auto tighten_weight = [&](size_t v) {
+    double w = 1;
+    if (!junction_distance.empty()) w *= smoothstep01(std::sqrt(double(junction_distance[v])) / fade);
+    if (!protected_distance.empty()) w *= smoothstep01((std::sqrt(double(protected_distance[v])) - h) / (tighten_r + h));
+    return w;
+  };
   for (const auto& [label, info] : found) {
     const auto& [count, box] = info;
     out.labels.push_back(label);
     out.voxel_counts.push_back(count);
     BrickField field(grid, -band);
 
-    // The crop: the label's bounding box plus what the band and the smoothing can reach.
-    Box crop{glm::max(box.lo - margin, glm::ivec3(0)), glm::min(box.hi + margin, grid.dims - 1)};
+    // The crop: the label's bounding box plus what the band, the smoothing and the tightening can reach.
+    const Box crop = crop_of(box);
     const glm::ivec3 n = crop.size();
     Grid cgrid{n, grid.spacing, grid.origin};
     const size_t cn = cgrid.voxel_count();
@@ -153,13 +270,24 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           if (!raw.empty()) {
             const double d = std::sqrt(double(junction_distance[full_index(ci)]));
             const double w = std::clamp(d / fade, 0.0, 1.0);
-            const double smooth = 0.3 + 0.7 * w * w * (3 - 2 * w);  // never fully raw: 30% keeps the staircase down
+            // never fully raw by default: some smoothing keeps the staircase down
+            const double smooth = options.junction_smoothing + (1 - options.junction_smoothing) * w * w * (3 - 2 * w);
             phi[ci] = float(smooth * phi[ci] + (1 - smooth) * raw[ci]);
           }
           phi[ci] = inside[ci] ? std::max(phi[ci], keep) : std::min(phi[ci], -keep);
         }
       });
     }
+
+    uint64_t moved = 0;
+    if (tighten_r > 0) {
+      const int iterations = options.tighten_iterations > 0 ? options.tighten_iterations
+                                                            : 10 + int(std::ceil(10.0 * options.tighten_radius));
+      tighten_field(phi, n, grid.spacing, tighten_r, iterations, double(band),
+                    [&](size_t ci) { return tighten_weight(full_index(ci)); });
+      for (size_t ci = 0; ci < cn; ++ci) moved += bool(inside[ci]) != (phi[ci] > 0);
+    }
+    out.tightened_voxels.push_back(moved);
 
     // Into bricks: allocate those where the field is not a constant +-band.
     const glm::ivec3 blo = crop.lo / BrickField::kBrick, bhi = crop.hi / BrickField::kBrick;

@@ -120,8 +120,12 @@ TEST_CASE("a layer one voxel thick and a single-voxel component survive") {
     for (int j = 0; j < g.dims.y; ++j)
       for (int i = 0; i < g.dims.x; ++i) labels[g.index(i, j, k)] = k < 10 ? 0 : (k == 10 ? 2 : 1);
   labels[g.index(5, 5, 4)] = 3;  // an isolated voxel
-  const auto fields = build_indicator_fields(g, labels.data());
+  IndicatorOptions options;
+  options.tighten_radius = 3.0;  // far thicker than the layer: it must be protected, not tightened away
+  const auto fields = build_indicator_fields(g, labels.data(), options);
   REQUIRE(fields.labels == std::vector<uint16_t>{0, 1, 2, 3});
+  CHECK(fields.protected_voxels >= 20u * 20u + 1u);
+  CHECK(fields.tightened_voxels == std::vector<uint64_t>{0, 0, 0, 0});
   for (int j = 0; j < g.dims.y; ++j)
     for (int i = 0; i < g.dims.x; ++i) CHECK(fields.labels[size_t(fields.material_at(glm::dvec3(i, j, 10)))] == 2);
   CHECK(fields.labels[size_t(fields.material_at(glm::dvec3(5, 5, 4)))] == 3);
@@ -132,4 +136,37 @@ TEST_CASE("a layer one voxel thick and a single-voxel component survive") {
   };
   CHECK(crossing(2, 0, 9.0, 10.0) == doctest::Approx(9.5).epsilon(0.03));
   CHECK(crossing(2, 1, 10.0, 11.0) == doctest::Approx(10.5).epsilon(0.03));
+}
+
+TEST_CASE("tightening rounds a cube's corners to radius r and leaves its faces") {
+  Grid g{{32, 32, 32}, {1, 1, 1}, {0, 0, 0}};
+  std::vector<uint16_t> labels(g.voxel_count());
+  for (int k = 0; k < 32; ++k)
+    for (int j = 0; j < 32; ++j)
+      for (int i = 0; i < 32; ++i) labels[g.index(i, j, k)] = i >= 8 && i < 24 && j >= 8 && j < 24 && k >= 8 && k < 24;
+  const glm::dvec3 c(15.5);  // the cube spans 7.5 .. 23.5, half side 8
+  auto zero_along = [&](const IndicatorFields& f, const glm::dvec3& dir, double t1) {
+    return bisect([&](double t) { return f.fields[1].sample_cubic(c + t * dir) - f.fields[0].sample_cubic(c + t * dir); }, 0.0, t1);
+  };
+  const glm::dvec3 diagonal = glm::normalize(glm::dvec3(1, 1, 1)), face(1, 0, 0), edge = glm::normalize(glm::dvec3(1, 1, 0));
+  IndicatorOptions plain;
+  plain.tighten_radius = 0;
+  IndicatorOptions tight;
+  tight.tighten_radius = 3.0;
+  const auto f0 = build_indicator_fields(g, labels.data(), plain);
+  const auto f3 = build_indicator_fields(g, labels.data(), tight);
+  const double corner0 = zero_along(f0, diagonal, 15.0), corner3 = zero_along(f3, diagonal, 15.0);
+  const double edge0 = zero_along(f0, edge, 13.0), edge3 = zero_along(f3, edge, 13.0);
+  const double face0 = zero_along(f0, face, 11.0), face3 = zero_along(f3, face, 11.0);
+  MESSAGE("corner " << corner0 << " -> " << corner3 << ", edge " << edge0 << " -> " << edge3 << ", face " << face0
+                    << " -> " << face3 << "; voxels moved " << f3.tightened_voxels[1]);
+  // A corner rounded to radius 3 reaches (8 - 3) * sqrt(3) + 3 = 11.66 along the diagonal, an edge 5 sqrt(2) + 3 =
+  // 10.07 along its bisector; the sharp cube reaches 13.86 and 11.31. The flow may stop short of the limit radius.
+  CHECK(corner3 < corner0 - 1.0);
+  CHECK(corner3 > 11.66 - 0.5);
+  CHECK(edge3 < edge0 - 0.4);
+  CHECK(edge3 > 10.07 - 0.5);
+  CHECK(face3 == doctest::Approx(face0).epsilon(0.01));
+  CHECK(f3.tightened_voxels[1] > 0);
+  CHECK(f3.protected_voxels == 0);
 }
