@@ -45,6 +45,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       walk_(ctx),
       reduce_(ctx),
       advect_(ctx, shaders::advect),
+      population_flags_(ctx, shaders::population_flags),
       particles_(ctx, particles, "particles"),
       walk_result_(ctx, n_, "walk result"),
       node_moments_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size)),
@@ -54,6 +55,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       counts_(ctx, n_, "walk counts"),
       visits_(ctx, n_, "walk visits"),
       lost_(ctx, 1, "lost particles", gpu::MemoryUse::readback),
+      flags_(ctx, n_, "population flags"),
       feature_masks_(ctx, feature_masks(E), "feature masks"),
       keys_(ctx, n_, "morton keys"),
       nodes_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size), "octree nodes"),
@@ -101,6 +103,30 @@ IterationStats ParticleSystem::step() {
   s.energy = readback_.read(0);
   s.lost = lost_.read(0);
   return s;
+}
+
+ParticleSystem::PopulationCheck ParticleSystem::check_population(const std::vector<float>& ideals,
+                                                                 float delete_factor, float add_factor) {
+  gpu::Buffer<float> ideal_buffer(*ctx_, ideals, "feature ideal energies");
+  gpu::Buffer<uint32_t> counters(*ctx_, 2 + 2 * ideals.size(), "population counters", gpu::MemoryUse::readback);
+  gpu::Sequence seq(*ctx_);
+  seq.fill(counters, 0).barrier();
+  record_walk(seq);
+  const struct {
+    uint32_t n;
+    float delete_factor, add_factor;
+  } push{n_, delete_factor, add_factor};
+  seq.dispatch(population_flags_, {walk_result_, features_, ideal_buffer, flags_, counters}, push, n_);
+  seq.submit_and_wait();
+  const std::vector<uint32_t> c = counters.download();
+  PopulationCheck r;
+  r.delete_candidates = c[0];
+  r.add_candidates = c[1];
+  for (size_t f = 0; f < ideals.size(); ++f) {
+    r.count.push_back(c[3 + 2 * f]);
+    r.energy_ratio.push_back(c[3 + 2 * f] ? double(c[2 + 2 * f]) / 64.0 / double(c[3 + 2 * f]) : 0.0);
+  }
+  return r;
 }
 
 uint64_t ParticleSystem::last_node_visits() const {

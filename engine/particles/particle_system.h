@@ -54,6 +54,18 @@ class ParticleSystem {
   uint64_t last_node_visits() const;
   float alpha() const { return alpha_; }
 
+  // Population check (seed paper Sec. 6.2, step one; particles/population.h): walks the tree at the current
+  // positions, then flags add/delete candidates on the GPU (shaders/population_flags.comp) against each feature's
+  // ideal energy. Reads back 2 + 2 x features numbers; flags() and walk_result() read the rest only when needed.
+  struct PopulationCheck {
+    uint32_t delete_candidates = 0, add_candidates = 0;
+    std::vector<double> energy_ratio;  // per feature: mean E / ideal (0 where it has no particle or no ideal)
+    std::vector<uint32_t> count;       // per feature: particles counted
+  };
+  PopulationCheck check_population(const std::vector<float>& ideals, float delete_factor, float add_factor);
+  std::vector<uint32_t> flags() const { return flags_.download(); }  // of the last check: 0, 1 delete, 2 add
+  std::vector<glm::vec4> walk_result() const { return walk_result_.download(); }  // (gradient, E), last walk
+
  private:
   void record_walk(gpu::Sequence& seq);
   gpu::Context* ctx_;
@@ -67,10 +79,10 @@ class ParticleSystem {
   octree::OctreeMoments moments_;
   octree::TreeWalk walk_;
   gpu::Reduce reduce_;
-  gpu::Kernel advect_;
+  gpu::Kernel advect_, population_flags_;
   gpu::Buffer<glm::vec4> particles_, walk_result_;
   octree::NodeMoments node_moments_;
-  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, visits_, lost_;
+  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, visits_, lost_, flags_;
   gpu::Buffer<uint64_t> feature_masks_, keys_;
   gpu::Buffer<glm::uvec4> nodes_;
   gpu::Buffer<glm::uvec2> level_info_;

@@ -1,0 +1,382 @@
+#include "particles/population.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include "ref/cp_lookup.h"
+
+namespace cpmesh::particles {
+
+namespace {
+
+constexpr float kSupport = 1.7320508075688772f;  // the energy reaches sqrt(3) h (2 cos(pi/6) h)
+
+uint64_t material_mask(const fields::Feature& f) {
+  uint64_t m = 0;
+  for (int a = 0; a < f.material_count(); ++a) m |= uint64_t(1) << (f.materials[size_t(a)] & 63);
+  return m;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace
+
+float pair_energy(float d) {
+  const float pi = 3.14159265358979f;
+  d = std::max(d, 1e-3f);
+  if (d >= 1.0f) return 0.0f;
+  const float x = d * pi * 0.5f;
+  return std::cos(x) / std::sin(x) + x - pi * 0.5f;
+}
+
+int feature_dimension(fields::FeatureKind kind) {
+  return kind == fields::FeatureKind::interface ? 2 : kind == fields::FeatureKind::triple_curve ? 1 : 0;
+}
+
+double lattice_energy(double spacing, int dim) {
+  double e = 0;
+  const int reach = int(std::ceil(double(kSupport) / spacing)) + 1;
+  if (dim == 1) {
+    for (int k = 1; k <= reach; ++k) e += 2.0 * pair_energy(float(k * spacing / kSupport));
+  } else if (dim == 2) {
+    for (int a = -reach; a <= reach; ++a)
+      for (int b = -reach; b <= reach; ++b) {
+        if (a == 0 && b == 0) continue;
+        const double x = a + 0.5 * b, y = 0.8660254037844386 * b;  // hexagonal lattice
+        e += pair_energy(float(spacing * std::sqrt(x * x + y * y) / kSupport));
+      }
+  }
+  return e;
+}
+
+double ideal_energy(fields::FeatureKind kind) { return lattice_energy(1.0, feature_dimension(kind)); }
+
+double density_ratio(double energy_ratio, int dim) {
+  if (dim == 0) return 1.0;
+  const double target = energy_ratio * lattice_energy(1.0, dim);
+  double lo = 0.2, hi = kSupport;  // lattice_energy decreases with the spacing; 0 from sqrt(3) on
+  if (lattice_energy(lo, dim) <= target) return std::pow(1.0 / lo, dim);
+  if (target <= 0) return std::pow(1.0 / hi, dim);
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (lattice_energy(mid, dim) > target ? lo : hi) = mid;
+  }
+  return std::pow(2.0 / (lo + hi), dim);
+}
+
+std::vector<float> feature_ideals(const fields::ClosestPointEmbedding& E) {
+  std::vector<float> out;
+  for (const auto& f : E.features) out.push_back(float(ideal_energy(f.kind)));
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+
+HostIndex::HostIndex(const fields::ClosestPointEmbedding& E, double cell) : cell_(cell) {
+  for (const auto& f : E.features) masks_.push_back(material_mask(f));
+}
+
+glm::ivec3 HostIndex::cell_of(const glm::vec3& p) const { return glm::ivec3(glm::floor(glm::dvec3(p) / cell_)); }
+
+uint64_t HostIndex::key(const glm::ivec3& c) {
+  return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) |
+         uint64_t(uint32_t(c.z) & 0x1fffff);
+}
+
+uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
+  const uint32_t id = uint32_t(entries_.size());
+  entries_.push_back({particle, feature, true});
+  cells_[key(cell_of(glm::vec3(particle)))].push_back(id);
+  h_max_ = std::max(h_max_, particle.w);
+  ++live_;
+  return id;
+}
+
+void HostIndex::remove(uint32_t id) {
+  Entry& e = entries_[id];
+  if (!e.live) return;
+  e.live = false;
+  auto& list = cells_[key(cell_of(glm::vec3(e.particle)))];
+  list.erase(std::find(list.begin(), list.end(), id));
+  --live_;
+}
+
+double HostIndex::energy(const glm::vec3& p, float h, uint32_t feature, uint32_t skip) const {
+  const uint64_t mask = masks_[feature];
+  // Pairs interact within sqrt(3) min(h, h_j) <= sqrt(3) h.
+  const float reach = kSupport * std::min(h, h_max_);
+  const glm::ivec3 lo = cell_of(p - reach), hi = cell_of(p + reach);
+  double e = 0;
+  for (int z = lo.z; z <= hi.z; ++z)
+    for (int y = lo.y; y <= hi.y; ++y)
+      for (int x = lo.x; x <= hi.x; ++x) {
+        const auto it = cells_.find(key({x, y, z}));
+        if (it == cells_.end()) continue;
+        for (uint32_t j : it->second) {
+          if (j == skip) continue;
+          const Entry& q = entries_[j];
+          if ((masks_[q.feature] & mask) != mask) continue;
+          const float r = glm::length(p - glm::vec3(q.particle));
+          e += pair_energy(r / (kSupport * std::min(h, q.particle.w)));
+        }
+      }
+  return e;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+
+namespace {
+
+// A cell size for the host index: sqrt(3) x the median h of the embedding's touching blocks.
+double typical_cell(const fields::ClosestPointEmbedding& E) {
+  std::vector<float> hs;
+  const size_t per_block = size_t(E.sub * E.sub * E.sub);
+  for (size_t slot = 0; slot < E.keys.size(); slot += 7)
+    if (E.keys[slot] != fields::ClosestPointEmbedding::kEmpty) hs.push_back(E.fine[size_t(E.blocks[slot]) * per_block].w);
+  if (hs.empty()) return 1.0;
+  std::nth_element(hs.begin(), hs.begin() + long(hs.size() / 2), hs.end());
+  return std::max(double(kSupport) * hs[hs.size() / 2], 1e-6);
+}
+
+// h at a quadruple point: the sizing stored with its own feature's closest points.
+float quadruple_h(const fields::ClosestPointEmbedding& E, const glm::dvec3& p, uint32_t feature) {
+  const auto cp = ref::cp_lookup(E, glm::vec3(p), feature);
+  if (cp.valid && cp.value.w > 0) return cp.value.w;
+  return float(E.grid.min_spacing());
+}
+
+}  // namespace
+
+Population seed_population(const fields::ClosestPointEmbedding& E, const PopulationOptions& options, SeedStats* stats,
+                           bool grid_only) {
+  Population out;
+  SeedStats st;
+  HostIndex index(E, typical_cell(E));
+  std::mt19937 rng(options.seed);
+  std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+  const double voxel = E.grid.min_spacing();
+  const size_t per_block = size_t(E.sub * E.sub * E.sub);
+  auto keep = [&](const glm::vec4& p, uint32_t f) {
+    out.particles.push_back(p);
+    out.features.push_back(f);
+    index.insert(p, f);
+  };
+  for (const auto& q : E.quadruple_points) keep(glm::vec4(glm::vec3(q.position), quadruple_h(E, q.position, q.feature)), q.feature);
+
+  for (fields::FeatureKind kind : {fields::FeatureKind::triple_curve, fields::FeatureKind::interface}) {
+    // Candidates of this dimension: grid points next to the feature, projected (the stored closest point of the
+    // block's first fine point), and random points in the cells where h is small, projected by the lookup.
+    std::vector<std::pair<glm::vec4, uint32_t>> candidates;
+    for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+      if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
+      const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
+      if (E.features[f].kind != kind) continue;
+      const size_t cell = size_t(E.keys[slot] >> 16);
+      if (!E.touches_feature(cell, E.blocks[slot])) continue;
+      const glm::vec4 cp = E.fine[size_t(E.blocks[slot]) * per_block];
+      candidates.push_back({cp, f});
+      ++st.grid_candidates;
+      if (grid_only) continue;
+      const double h_vox = cp.w / voxel;
+      if (h_vox >= options.random_seed_below) continue;
+      const double expected = options.random_seed_constant / std::max(h_vox, 1e-3);
+      int count = int(expected);
+      if (u01(rng) < expected - count) ++count;
+      const glm::vec3 corner = glm::vec3(E.grid.local(glm::dvec3(E.grid.voxel(cell)) - 0.5));
+      for (int c = 0; c < count; ++c) {
+        const glm::vec3 q = corner + glm::vec3(u01(rng), u01(rng), u01(rng)) * glm::vec3(E.grid.spacing);
+        const auto r = ref::cp_lookup(E, q, f);
+        if (!r.valid) continue;
+        candidates.push_back({r.value, f});
+        ++st.random_candidates;
+      }
+    }
+    std::shuffle(candidates.begin(), candidates.end(), rng);  // no grid-aligned bias in who is kept
+    st.candidates += candidates.size();
+    for (const auto& [p, f] : candidates) {
+      if (!grid_only) {
+        const double ideal = ideal_energy(kind);
+        if (index.energy(glm::vec3(p), p.w, f) >= options.seed_energy_factor * ideal) continue;
+      }
+      keep(p, f);
+    }
+  }
+  st.kept = out.particles.size();
+  if (stats) *stats = st;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+
+Population add_delete(const fields::ClosestPointEmbedding& E, const Population& pop, const std::vector<float>& energies,
+                      const std::vector<uint32_t>& flags, const std::vector<double>& feature_ratio,
+                      const PopulationOptions& options, std::mt19937& rng, RoundReport& report) {
+  const size_t n = pop.particles.size();
+  HostIndex index(E, typical_cell(E));
+  for (size_t i = 0; i < n; ++i) index.insert(pop.particles[i], pop.features[i]);  // ids equal i
+  std::vector<uint8_t> alive(n, 1);
+  auto ideal_of = [&](size_t i) { return ideal_energy(E.features[pop.features[i]].kind); };
+  auto current = [&](size_t i) {
+    return index.energy(glm::vec3(pop.particles[i]), pop.particles[i].w, pop.features[i], uint32_t(i));
+  };
+  std::vector<size_t> by_energy(n);
+  std::iota(by_energy.begin(), by_energy.end(), size_t(0));
+  std::stable_sort(by_energy.begin(), by_energy.end(), [&](size_t a, size_t b) { return energies[a] < energies[b]; });
+
+  // Per feature: particles and the count change its mean energy asks for (negative: too many).
+  const size_t F = E.features.size();
+  std::vector<long> count(F, 0), change(F, 0);
+  for (size_t i = 0; i < n; ++i) ++count[pop.features[i]];
+  for (size_t f = 0; f < F; ++f) {
+    const int dim = feature_dimension(E.features[f].kind);
+    if (dim == 0 || count[f] == 0) continue;
+    const double ratio = (f < feature_ratio.size() ? feature_ratio[f] : 1.0) / options.relaxed_energy_ratio;
+    if (std::fabs(ratio - 1.0) <= options.energy_tolerance) continue;
+    const double density = density_ratio(ratio, dim);  // > 1: denser than ideal
+    change[f] = std::lround(double(count[f]) * (1.0 / density - 1.0));
+    change[f] = std::clamp(change[f], -count[f] / 2, count[f]);
+  }
+
+  // a. The paper's step: delete candidates out, then back in one at a time, lowest energy first, if below 4x ideal.
+  for (size_t i = 0; i < n; ++i)
+    if (flags[i] == 1) index.remove(uint32_t(i));
+  for (size_t i : by_energy) {
+    if (flags[i] != 1) continue;
+    if (current(i) < options.readd_factor * ideal_of(i)) {
+      index.insert(pop.particles[i], pop.features[i]);  // a new id; the old one stays dead
+      continue;
+    }
+    alive[i] = 0;
+    ++report.deleted;
+    ++change[pop.features[i]];
+  }
+  // The re-inserted particles have new ids; map each back for step b's energy queries.
+  // (Rebuilding is simpler than tracking ids: the index holds exactly the live particles.)
+  index = HostIndex(E, typical_cell(E));
+  for (size_t i = 0; i < n; ++i)
+    if (alive[i]) index.insert(pop.particles[i], pop.features[i]);
+  std::vector<uint32_t> id(n, ~0u);
+  {
+    uint32_t next = 0;
+    for (size_t i = 0; i < n; ++i)
+      if (alive[i]) id[i] = next++;
+  }
+  auto current_live = [&](size_t i) {
+    return index.energy(glm::vec3(pop.particles[i]), pop.particles[i].w, pop.features[i], id[i]);
+  };
+
+  // b. Too dense features: remove the highest-energy particles while each is still above ideal when its turn comes.
+  for (auto it = by_energy.rbegin(); it != by_energy.rend(); ++it) {
+    const size_t i = *it;
+    const uint32_t f = pop.features[i];
+    if (!alive[i] || change[f] >= 0 || feature_dimension(E.features[f].kind) == 0) continue;
+    if (current_live(i) <= ideal_of(i)) continue;
+    index.remove(id[i]);
+    alive[i] = 0;
+    ++report.deleted;
+    ++change[f];
+  }
+
+  // c. Additions: add candidates first (lowest energy first), then, for sparse features, the other particles.
+  Population out;
+  for (size_t i = 0; i < n; ++i)
+    if (alive[i]) {
+      out.particles.push_back(pop.particles[i]);
+      out.features.push_back(pop.features[i]);
+    }
+  std::normal_distribution<float> n01;
+  std::vector<long> budget(F, 0);
+  for (size_t i = 0; i < n; ++i)
+    if (alive[i] && flags[i] == 2) ++budget[pop.features[i]];
+  for (size_t f = 0; f < F; ++f) budget[f] = std::max(budget[f], change[f]);
+  for (int pass = 0; pass < 2; ++pass)
+    for (size_t i : by_energy) {
+      const uint32_t f = pop.features[i];
+      if (!alive[i] || budget[f] <= 0 || feature_dimension(E.features[f].kind) == 0) continue;
+      if ((pass == 0) != (flags[i] == 2)) continue;
+      if (pass == 1 && change[f] <= 0) continue;
+      const glm::vec4 parent = pop.particles[i];
+      // Filling a hole in a feature of the right density: the newcomer must sit at about the ideal energy. Raising
+      // the count of a sparse feature (its budget bounds how many): it may sit as high as a re-inserted particle.
+      const double limit = (change[f] > 0 ? options.readd_factor : options.accept_factor) * ideal_of(i);
+      for (int t = 0; t < options.add_tries; ++t) {
+        glm::vec3 dir(n01(rng), n01(rng), n01(rng));
+        if (glm::length(dir) < 1e-6f) continue;
+        dir = glm::normalize(dir);
+        const auto cp = ref::cp_lookup(E, glm::vec3(parent) + parent.w * dir, f);
+        if (!cp.valid || glm::length(glm::vec3(cp.value) - glm::vec3(parent)) < 0.5f * parent.w) continue;
+        if (index.energy(glm::vec3(cp.value), cp.value.w, f) >= limit) continue;
+        index.insert(cp.value, f);
+        out.particles.push_back(cp.value);
+        out.features.push_back(f);
+        ++report.added;
+        --budget[f];
+        --change[f];
+        break;
+      }
+    }
+  report.total = uint32_t(out.particles.size());
+  return out;
+}
+
+RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Population start,
+                  const AdvectionOptions& advection, const PopulationOptions& options,
+                  const std::function<void(const RoundReport&)>& on_round) {
+  using clock = std::chrono::steady_clock;
+  RelaxResult result;
+  result.population = std::move(start);
+  const std::vector<float> ideals = feature_ideals(E);
+  std::mt19937 rng(options.seed ^ 0x9e3779b9u);
+  AdvectionOptions adv = advection;
+  adv.max_iterations = options.iterations_per_round;
+  bool stalled = false;  // the last round changed nothing: another would only repeat it
+  for (int round = 1; round <= options.max_rounds; ++round) {
+    RoundReport rep;
+    rep.round = round;
+    auto t = clock::now();
+    ParticleSystem system(ctx, E, result.population.particles, result.population.features, adv);
+    const auto run = system.run();
+    rep.iterations = run.iterations;
+    rep.converged = run.converged;
+    rep.energy = run.energies.empty() ? 0.0 : run.energies.back();
+    result.iterations += run.iterations;
+    rep.advect_seconds = seconds_since(t);
+
+    t = clock::now();
+    const auto check = system.check_population(ideals, float(options.delete_factor), float(options.add_factor));
+    rep.flagged_delete = check.delete_candidates;
+    rep.flagged_add = check.add_candidates;
+    for (size_t f = 0; f < ideals.size(); ++f)
+      if (check.count[f] > 0)
+        rep.max_feature_deviation =
+            std::max(rep.max_feature_deviation, std::fabs(check.energy_ratio[f] / options.relaxed_energy_ratio - 1.0));
+    const uint32_t n = system.size();
+    result.population.particles = system.particles();
+    rep.check_seconds = seconds_since(t);
+    const bool balanced = rep.max_feature_deviation <= options.energy_tolerance;
+    const bool settled = balanced && double(check.delete_candidates + check.add_candidates) <= options.significance * double(n);
+    if (settled || round == options.max_rounds || stalled) {
+      rep.total = n;
+      result.settled = settled || (stalled && balanced);
+      result.rounds.push_back(rep);
+      if (on_round) on_round(rep);
+      break;
+    }
+    t = clock::now();
+    const auto walk = system.walk_result();
+    std::vector<float> energies(walk.size());
+    for (size_t i = 0; i < walk.size(); ++i) energies[i] = walk[i].w;
+    result.population = add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
+    rep.host_seconds = seconds_since(t);
+    stalled = rep.added == 0 && rep.deleted == 0;
+    result.rounds.push_back(rep);
+    if (on_round) on_round(rep);
+  }
+  return result;
+}
+
+}  // namespace cpmesh::particles

@@ -1,0 +1,155 @@
+// Particle population (issue 7): the GPU flag kernel against its reference, the host index against brute force,
+// and add/delete rounds that bring a too dense or too sparse sphere to the hexagonal count.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <random>
+
+#include "fields/fields_stage.h"
+#include "fields_volumes.h"
+#include "gpu_fixture.h"
+#include "particles/population.h"
+#include "ref/cp_lookup.h"
+#include "ref/particle_energy.h"
+#include "ref/population_flags.h"
+
+using namespace cpmesh;
+using cpmesh::test::GpuFixture;
+
+namespace {
+
+constexpr double kSphereR = 16.0, kSphereH = 3.0;
+
+struct Setup {
+  test::FieldsVolume vol;
+  fields::FieldsResult fields;
+};
+
+// Sphere R = 16 with constant h = 3 (h_max clamps the curvature-based 8 everywhere).
+const Setup& sphere() {
+  static const Setup s = [] {
+    Setup r{test::make_volume(io::SynthShape::sphere, 48, kSphereR), {}};
+    fields::FieldsOptions o;
+    o.sizing.h_max = kSphereH;
+    r.fields = fields::build_fields(r.vol.grid, r.vol.labels.data(), o);
+    return r;
+  }();
+  return s;
+}
+
+particles::Population random_on_sphere(const Setup& s, size_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01;
+  particles::Population p;
+  while (p.particles.size() < n) {
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    const auto cp = ref::cp_lookup(s.fields.embedding, glm::vec3(s.vol.centre + kSphereR * dir), 0);
+    if (!cp.valid) continue;
+    p.particles.push_back(cp.value);
+    p.features.push_back(0);
+  }
+  return p;
+}
+
+// std / mean of the nearest-neighbour distances among particles of the same feature kind.
+double nn_spread(const std::vector<glm::vec4>& p) {
+  std::vector<double> nn(p.size(), 1e30);
+  for (size_t i = 0; i < p.size(); ++i)
+    for (size_t j = 0; j < p.size(); ++j)
+      if (i != j) nn[i] = std::min(nn[i], double(glm::length(glm::vec3(p[i]) - glm::vec3(p[j]))));
+  const double mean = std::accumulate(nn.begin(), nn.end(), 0.0) / double(nn.size());
+  double var = 0;
+  for (double d : nn) var += (d - mean) * (d - mean);
+  return std::sqrt(var / double(nn.size())) / mean;
+}
+
+}  // namespace
+
+TEST_CASE_FIXTURE(GpuFixture, "population flags on the GPU match the reference") {
+  const auto& s = sphere();
+  const auto start = random_on_sphere(s, 3000, 5);  // random: energies from far below to far above the ideal
+  particles::ParticleSystem system(ctx, s.fields.embedding, start.particles, start.features);
+  const auto ideals = particles::feature_ideals(s.fields.embedding);
+  const auto check = system.check_population(ideals, 2.0f, 0.5f);
+  const auto walk = system.walk_result();
+  std::vector<uint32_t> flags, counters;
+  ref::population_flags(walk, start.features, ideals, 2.0f, 0.5f, flags, counters);
+  CHECK(system.flags() == flags);
+  CHECK(check.delete_candidates == counters[0]);
+  CHECK(check.add_candidates == counters[1]);
+  CHECK(check.delete_candidates > 100);
+  CHECK(check.add_candidates > 100);
+  REQUIRE(check.count.size() == ideals.size());
+  CHECK(check.count[0] == 3000);
+  CHECK(check.energy_ratio[0] == doctest::Approx(double(counters[2]) / 64.0 / 3000.0));
+  double mean = 0;
+  for (const auto& w : walk) mean += std::min(w.w / ideals[0], 16.0f);
+  CHECK(check.energy_ratio[0] == doctest::Approx(mean / 3000.0).epsilon(1e-3));
+}
+
+TEST_CASE("ideal energy: hexagonal packing at h, and the density its energy implies") {
+  const double e1 = particles::pair_energy(float(1.0 / std::sqrt(3.0)));
+  CHECK(particles::ideal_energy(fields::FeatureKind::interface) == doctest::Approx(6 * e1).epsilon(1e-6));
+  CHECK(particles::ideal_energy(fields::FeatureKind::triple_curve) == doctest::Approx(2 * e1).epsilon(1e-6));
+  CHECK(particles::ideal_energy(fields::FeatureKind::quadruple_point) == 0.0);
+  CHECK(particles::pair_energy(1.0f) == 0.0f);
+  for (int dim : {1, 2}) {
+    CHECK(particles::density_ratio(1.0, dim) == doctest::Approx(1.0).epsilon(1e-4));
+    for (double s : {0.6, 0.8, 1.2, 1.5}) {
+      const double ratio = particles::lattice_energy(s, dim) / particles::lattice_energy(1.0, dim);
+      CHECK(particles::density_ratio(ratio, dim) == doctest::Approx(std::pow(1.0 / s, dim)).epsilon(1e-3));
+    }
+    CHECK(particles::density_ratio(0.0, dim) == doctest::Approx(std::pow(1.0 / std::sqrt(3.0), dim)).epsilon(1e-4));
+  }
+}
+
+TEST_CASE("host index energies equal the brute-force reference, through inserts and removals") {
+  const auto& s = sphere();
+  auto pop = random_on_sphere(s, 800, 9);
+  std::mt19937 rng(3);
+  for (auto& p : pop.particles) p.w *= 0.5f + std::uniform_real_distribution<float>(0.0f, 1.0f)(rng);  // varied h
+  particles::HostIndex index(s.fields.embedding, 2.0);
+  for (size_t i = 0; i < pop.particles.size(); ++i) index.insert(pop.particles[i], pop.features[i]);
+  for (uint32_t i = 0; i < 800; i += 3) index.remove(i);
+  std::vector<glm::vec4> live;
+  std::vector<uint32_t> live_features;
+  std::vector<uint32_t> ids;
+  for (uint32_t i = 0; i < 800; ++i)
+    if (i % 3 != 0) {
+      live.push_back(pop.particles[i]);
+      live_features.push_back(0);
+      ids.push_back(i);
+    }
+  CHECK(index.size() == live.size());
+  const auto want = ref::particle_energy(live, live_features, index.masks());
+  double worst = 0;
+  for (size_t k = 0; k < live.size(); ++k)
+    worst = std::max(worst, std::fabs(index.energy(glm::vec3(live[k]), live[k].w, 0, ids[k]) - double(want[k].w)));
+  CHECK(worst < 1e-4);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "add/delete brings a 3x too dense and a 3x too sparse sphere to the hexagonal count") {
+  const auto& s = sphere();
+  const double hex = 4.0 * M_PI * kSphereR * kSphereR / (0.5 * std::sqrt(3.0) * kSphereH * kSphereH);
+  double factor = 3.0;
+  SUBCASE("3x too dense") { factor = 3.0; }
+  SUBCASE("3x too sparse") { factor = 1.0 / 3.0; }
+  CAPTURE(factor);
+  const auto start = random_on_sphere(s, size_t(std::lround(hex * factor)), 11);
+  particles::PopulationOptions po;
+  const auto r = particles::relax(ctx, s.fields.embedding, start, {}, po);
+  for (const auto& rr : r.rounds)
+    MESSAGE("round " << rr.round << ": " << rr.iterations << " iterations, flagged -" << rr.flagged_delete << " +"
+                     << rr.flagged_add << ", deleted " << rr.deleted << ", added " << rr.added << ", total "
+                     << rr.total << ", mean E/ideal off by " << rr.max_feature_deviation);
+  const double n = double(r.population.particles.size());
+  const double spread = nn_spread(r.population.particles);
+  MESSAGE("start " << start.particles.size() << " -> " << n << " particles (hexagonal " << hex << "), spread " << spread
+                   << ", " << r.rounds.size() << " rounds, " << r.iterations << " iterations");
+  CHECK(r.settled);
+  CHECK(std::fabs(n - hex) / hex < 0.05);
+  CHECK(spread < 0.1);
+}
