@@ -152,7 +152,7 @@ ParticleSystem::RunResult ParticleSystem::run() {
       alpha_ = std::max(alpha_ * 0.5f, options_.alpha / 64.0f);  // the last step overshot: take smaller ones
     } else {
       alpha_ = std::min(alpha_ * 1.1f, options_.alpha);
-      if (it > 0 && previous > 0 && (previous - s.energy) / previous < options_.delta) {
+      if (it > 0 && it + 1 >= options_.min_iterations && previous > 0 && (previous - s.energy) / previous < options_.delta) {
         r.converged = true;
         break;
       }

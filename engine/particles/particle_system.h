@@ -21,6 +21,7 @@ struct AdvectionOptions {
   float theta = 0.0f;       // 0: exact walk (prune beyond the energy's support); > 0: Barnes-Hut opening angle
   double delta = 0.0015;    // stop when the relative energy decrease falls below this (paper)
   int max_iterations = 500;
+  int min_iterations = 0;   // the stop rule is not tested before this many iterations
 };
 
 struct IterationStats {

@@ -233,11 +233,11 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
   for (size_t i = 0; i < n; ++i) ++count[pop.features[i]];
   for (size_t f = 0; f < F; ++f) {
     const int dim = feature_dimension(E.features[f].kind);
-    if (dim == 0 || count[f] == 0) continue;
+    if (dim == 0 || count[f] < options.min_feature_particles) continue;
     const double ratio = (f < feature_ratio.size() ? feature_ratio[f] : 1.0) / options.relaxed_energy_ratio;
     if (std::fabs(ratio - 1.0) <= options.energy_tolerance) continue;
     const double density = density_ratio(ratio, dim);  // > 1: denser than ideal
-    change[f] = std::lround(double(count[f]) * (1.0 / density - 1.0));
+    change[f] = std::lround(options.count_gain * double(count[f]) * (1.0 / density - 1.0));
     change[f] = std::clamp(change[f], -count[f] / 2, count[f]);
   }
 
@@ -333,7 +333,9 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   std::mt19937 rng(options.seed ^ 0x9e3779b9u);
   AdvectionOptions adv = advection;
   adv.max_iterations = options.iterations_per_round;
+  adv.min_iterations = options.min_iterations_per_round;
   bool stalled = false;  // the last round changed nothing: another would only repeat it
+  int steady_rounds = 0;
   for (int round = 1; round <= options.max_rounds; ++round) {
     RoundReport rep;
     rep.round = round;
@@ -351,7 +353,7 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     rep.flagged_delete = check.delete_candidates;
     rep.flagged_add = check.add_candidates;
     for (size_t f = 0; f < ideals.size(); ++f)
-      if (check.count[f] > 0)
+      if (check.count[f] >= uint32_t(std::max(options.min_feature_particles, 1)))
         rep.max_feature_deviation =
             std::max(rep.max_feature_deviation, std::fabs(check.energy_ratio[f] / options.relaxed_energy_ratio - 1.0));
     const uint32_t n = system.size();
@@ -359,9 +361,10 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     rep.check_seconds = seconds_since(t);
     const bool balanced = rep.max_feature_deviation <= options.energy_tolerance;
     const bool settled = balanced && double(check.delete_candidates + check.add_candidates) <= options.significance * double(n);
-    if (settled || round == options.max_rounds || stalled) {
+    if (settled || round == options.max_rounds || stalled || steady_rounds >= 2) {
       rep.total = n;
       result.settled = settled || (stalled && balanced);
+      result.steady = steady_rounds >= 2;
       result.rounds.push_back(rep);
       if (on_round) on_round(rep);
       break;
@@ -373,6 +376,10 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     result.population = add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
     rep.host_seconds = seconds_since(t);
     stalled = rep.added == 0 && rep.deleted == 0;
+    // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running; one
+    // more advection run then ends it.
+    const double net = std::fabs(double(rep.added) - double(rep.deleted));
+    steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
     result.rounds.push_back(rep);
     if (on_round) on_round(rep);
   }

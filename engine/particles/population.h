@@ -23,7 +23,9 @@
 //      c. for add candidates (and the lowest-energy particles of a sparse feature), tries a new particle h away in a
 //         random direction, put on the feature by the embedding, kept only if its energy is below accept_factor x
 //         ideal (a hole) or, while a sparse feature's count is below what it needs, readd_factor x ideal.
-//   Rounds end when the population is settled or a round changed nothing.
+//   Rounds end when the population is settled, when a round changed nothing, or when adds and deletes have
+//   balanced out two rounds running (steady: graded sizing keeps a churn of local adds and deletes, as the pair
+//   energy scales with the smaller h); every ending is after an advection run.
 //      The changed population is uploaded once per round.
 // The paper's rules (a) and (c) only repair local holes and clumps: a population that is evenly too dense or too
 // sparse has every particle's energy between the thresholds, so (b) is what brings the count to the sizing field's.
@@ -66,8 +68,13 @@ struct PopulationOptions {
                                       // hexagonal count (391 and 396 of 412.7); at 1.15, 413 and 419
   double energy_tolerance = 0.05;     // settled when each feature's mean E / ideal is within this of the above ...
   double significance = 0.1;          // ... and at most this share of the particles is flagged
+  double steady_share = 0.01;         // steady: |added - deleted| below this share of n two rounds running
   int max_rounds = 20;                // add/delete rounds at most
   int iterations_per_round = 150;     // advection iterations per round at most (the stop rule usually ends it)
+  int min_iterations_per_round = 30;  // ... and at least (energies right after a change are not yet relaxed)
+  double count_gain = 0.5;            // share of a feature's count error corrected per round (damps overshoot)
+  int min_feature_particles = 20;     // features with fewer particles get no count correction (their mean
+                                      // energy is too noisy) and do not hold back settling
   int add_tries = 8;                  // random directions tried per add candidate
   uint32_t seed = 1;                  // random seed: same seed, same population
 };
@@ -138,7 +145,8 @@ Population add_delete(const fields::ClosestPointEmbedding& embedding, const Popu
 struct RelaxResult {
   Population population;
   std::vector<RoundReport> rounds;
-  bool settled = false;
+  bool settled = false;  // few flags and every feature's mean energy on target
+  bool steady = false;   // ended because adds and deletes balanced out (graded sizing keeps some churn)
   int iterations = 0;
 };
 

@@ -153,3 +153,63 @@ TEST_CASE_FIXTURE(GpuFixture, "add/delete brings a 3x too dense and a 3x too spa
   CHECK(std::fabs(n - hex) / hex < 0.05);
   CHECK(spread < 0.1);
 }
+
+TEST_CASE_FIXTURE(GpuFixture, "wedge ball, graded sizing: the settled density follows 1/h^2; seeding beats grid points") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
+  const auto F = fields::build_fields(wb.grid, wb.labels.data());
+  const auto& E = F.embedding;
+  particles::PopulationOptions po;
+  particles::SeedStats seeded, gridded;
+  const auto seeds = particles::seed_population(E, po, &seeded);
+  const auto grid = particles::seed_population(E, po, &gridded, true);
+  const auto r = particles::relax(ctx, E, seeds, {}, po);
+  const auto rg = particles::relax(ctx, E, grid, {}, po);
+  for (const auto& rr : r.rounds)
+    MESSAGE("round " << rr.round << ": " << rr.iterations << " iterations, flagged -" << rr.flagged_delete << " +"
+                     << rr.flagged_add << ", deleted " << rr.deleted << ", added " << rr.added << ", total "
+                     << rr.total << ", worst feature off by " << rr.max_feature_deviation);
+  MESSAGE("seeding: " << seeded.candidates << " candidates (" << seeded.random_candidates << " random), " << seeded.kept
+                      << " kept -> " << r.population.particles.size() << " particles in " << r.rounds.size()
+                      << " rounds, " << r.iterations << " iterations");
+  MESSAGE("grid points only: " << gridded.kept << " seeds -> " << rg.population.particles.size() << " particles in "
+                               << rg.rounds.size() << " rounds, " << rg.iterations << " iterations");
+  CHECK((r.settled || r.steady));
+  CHECK(r.rounds.size() <= rg.rounds.size());
+  CHECK(r.iterations < rg.iterations);
+  // Quadruple points are seeded exactly and never move or leave.
+  size_t quads = 0;
+  for (size_t i = 0; i < r.population.particles.size(); ++i)
+    if (E.features[r.population.features[i]].kind == fields::FeatureKind::quadruple_point) ++quads;
+  CHECK(quads == E.quadruple_points.size());
+
+  // Density in bins of h: particles per unit area x h^2, from each interface particle's mean distance s to its three
+  // nearest neighbours (a hexagonal packing at spacing s has 1 / (sqrt(3)/2 s^2) particles per unit area), with h
+  // averaged over the same four particles.
+  const auto& P = r.population.particles;
+  std::vector<std::pair<double, double>> h_and_density;  // (h, density x h^2)
+  for (size_t i = 0; i < P.size(); ++i) {
+    if (E.features[r.population.features[i]].kind != fields::FeatureKind::interface) continue;
+    std::vector<std::pair<double, size_t>> d;
+    for (size_t j = 0; j < P.size(); ++j)
+      if (j != i) d.push_back({glm::length(glm::vec3(P[i]) - glm::vec3(P[j])), j});
+    std::partial_sort(d.begin(), d.begin() + 3, d.end());
+    const double s = (d[0].first + d[1].first + d[2].first) / 3.0;
+    // h of the neighbourhood the spacing is measured over (the particle and the three neighbours).
+    const double h = (P[i].w + P[d[0].second].w + P[d[1].second].w + P[d[2].second].w) / 4.0;
+    h_and_density.push_back({h, h * h / (0.5 * std::sqrt(3.0) * s * s)});
+  }
+  std::sort(h_and_density.begin(), h_and_density.end());
+  const size_t bins = 4, per = h_and_density.size() / bins;
+  REQUIRE(per > 30);
+  double overall = 0;
+  for (const auto& [h, v] : h_and_density) overall += v;
+  overall /= double(h_and_density.size());
+  for (size_t b = 0; b < bins; ++b) {
+    double sum = 0;
+    for (size_t k = b * per; k < (b + 1) * per; ++k) sum += h_and_density[k].second;
+    const double mean = sum / double(per);
+    MESSAGE("h " << h_and_density[b * per].first << " .. " << h_and_density[(b + 1) * per - 1].first
+                 << ": density x h^2 = " << mean << " (all: " << overall << ")");
+    CHECK(std::fabs(mean / overall - 1.0) < 0.2);
+  }
+}
