@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "cli/run_tool.h"
 
 using cpmesh::test::contains;
@@ -88,6 +90,30 @@ TEST_CASE("fields on the bundled wedge ball: features found, files written, erro
   CHECK(info.exit_code == 1);  // a float field is not a label volume: refused with a message
   CHECK(contains(info.output, "sizing.nrrd"));
   const auto bad = run_tool("cpmesh fields " + (dir / "missing.nrrd").string() + " -o " + out.string());
+  CHECK(bad.exit_code == 1);
+  CHECK(contains(bad.output, "missing.nrrd"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("particles on a small sphere: settled population written, parameters in --help, errors clear") {
+  const auto dir = scratch();
+  const auto vol = dir / "sphere.nrrd";
+  REQUIRE(run_tool("cpmesh-synth sphere --size 32 --radius 10 -o " + vol.string()).exit_code == 0);
+  const auto out = dir / "particles";
+  const auto r = run_tool("cpmesh particles " + vol.string() + " --max-size 2.5 -o " + out.string());
+  REQUIRE(r.exit_code == 0);
+  CHECK(contains(r.output, "round"));
+  CHECK(fs::exists(out / "particles.vtp"));
+  std::ifstream json(out / "particles.json");
+  const auto j = nlohmann::json::parse(json);
+  // Hexagonal packing at h = 2.5 on a sphere of radius 10: 4 pi 100 / (sqrt(3)/2 6.25) = 232 particles.
+  CHECK(j["particles"].get<double>() == doctest::Approx(232.0).epsilon(0.1));
+  CHECK(j["rounds"].size() >= 1);
+  const auto help = run_tool("cpmesh particles --help");
+  for (const char* opt : {"--readd-factor", "--delete-factor", "--add-factor", "--seed-constant", "--seed-energy"})
+    CHECK(contains(help.output, opt));
+  CHECK(contains(help.output, "4"));
+  const auto bad = run_tool("cpmesh particles " + (dir / "missing.nrrd").string() + " -o " + out.string());
   CHECK(bad.exit_code == 1);
   CHECK(contains(bad.output, "missing.nrrd"));
   fs::remove_all(dir);

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
       add_selftest_command(app, g),
       add_info_command(app, g),
       add_fields_command(app, g),
+      add_particles_command(app, g),
   };
 
   try {
