@@ -12,6 +12,7 @@
 #include "particles/particle_system.h"
 #include "ref/advect.h"
 #include "ref/particle_energy.h"
+#include "spacing.h"
 
 using namespace cpmesh;
 using cpmesh::test::GpuFixture;
@@ -96,14 +97,7 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere with a fixed particle count converges to a
     off = std::max(off, glm::length(glm::vec3(cp.value) - glm::vec3(p)));
   }
   // Even: nearest-neighbour distances vary little.
-  std::vector<double> nn(end.size(), 1e30);
-  for (size_t i = 0; i < end.size(); ++i)
-    for (size_t j = 0; j < end.size(); ++j)
-      if (i != j) nn[i] = std::min(nn[i], double(glm::length(glm::vec3(end[i]) - glm::vec3(end[j]))));
-  const double mean = std::accumulate(nn.begin(), nn.end(), 0.0) / double(nn.size());
-  double var = 0;
-  for (double d : nn) var += (d - mean) * (d - mean);
-  const double spread = std::sqrt(var / double(nn.size())) / mean;
+  const auto [mean, spread] = test::nearest_neighbour_spacing(end);
   MESSAGE("distance to the surface max " << off << " voxel; nearest-neighbour spread " << spread << " (mean " << mean << ")");
   CHECK(off < 0.01f);
   CHECK(spread < 0.1);

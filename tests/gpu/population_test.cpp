@@ -15,6 +15,7 @@
 #include "ref/cp_lookup.h"
 #include "ref/particle_energy.h"
 #include "ref/population_flags.h"
+#include "spacing.h"
 
 using namespace cpmesh;
 using cpmesh::test::GpuFixture;
@@ -52,18 +53,6 @@ particles::Population random_on_sphere(const Setup& s, size_t n, uint32_t seed) 
     p.features.push_back(0);
   }
   return p;
-}
-
-// std / mean of the nearest-neighbour distances among particles of the same feature kind.
-double nn_spread(const std::vector<glm::vec4>& p) {
-  std::vector<double> nn(p.size(), 1e30);
-  for (size_t i = 0; i < p.size(); ++i)
-    for (size_t j = 0; j < p.size(); ++j)
-      if (i != j) nn[i] = std::min(nn[i], double(glm::length(glm::vec3(p[i]) - glm::vec3(p[j]))));
-  const double mean = std::accumulate(nn.begin(), nn.end(), 0.0) / double(nn.size());
-  double var = 0;
-  for (double d : nn) var += (d - mean) * (d - mean);
-  return std::sqrt(var / double(nn.size())) / mean;
 }
 
 }  // namespace
@@ -146,7 +135,7 @@ TEST_CASE_FIXTURE(GpuFixture, "add/delete brings a 3x too dense and a 3x too spa
                      << rr.flagged_add << ", deleted " << rr.deleted << ", added " << rr.added << ", total "
                      << rr.total << ", mean E/ideal off by " << rr.max_feature_deviation);
   const double n = double(r.population.particles.size());
-  const double spread = nn_spread(r.population.particles);
+  const double spread = test::nearest_neighbour_spacing(r.population.particles).spread;
   MESSAGE("start " << start.particles.size() << " -> " << n << " particles (hexagonal " << hex << "), spread " << spread
                    << ", " << r.rounds.size() << " rounds, " << r.iterations << " iterations");
   CHECK(r.settled);

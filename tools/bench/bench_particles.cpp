@@ -1,7 +1,10 @@
 // Benchmark of the GPU particle iteration (issue 6): random particles on a sphere at hexagonal density for their
 // sizing, a fixed number of iterations in exact and Barnes-Hut modes, per-kernel GPU time (timestamps), pairs
-// evaluated per second and the final energy, side by side. Prints a table and one JSON line per run.
+// evaluated per second and the final energy, side by side. Then the population (issue 7) on synthetic volumes:
+// the paper's seeding against grid points alone, each relaxed with add/delete rounds to a settled population:
+// seeds, final particles, rounds, iterations, time. Prints tables and one JSON line per run.
 //   cpmesh-bench-particles [--device D] [--particles 10000,100000] [--iterations 10] [--theta 0.75]
+//                          [--population wedge-ball:48,sphere:64]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +19,7 @@
 #include "gpu/describe.h"
 #include "io/synth_volumes.h"
 #include "particles/particle_system.h"
+#include "particles/population.h"
 #include "ref/cp_lookup.h"
 
 using namespace cpmesh;
@@ -30,6 +34,11 @@ int main(int argc, char** argv) {
   app.add_option("--particles", counts, "Particle counts")->delimiter(',')->capture_default_str();
   app.add_option("--iterations", iterations, "Iterations timed per run")->capture_default_str();
   app.add_option("--theta", theta, "Barnes-Hut opening angle of the second mode")->capture_default_str();
+  std::vector<std::string> populations = {"wedge-ball:48"};
+  app.add_option("--population", populations,
+                 "Volumes (shape:size) for the seeding comparison, shape = sphere, wedge-ball, slabs or shells")
+      ->delimiter(',')
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, true});
@@ -85,6 +94,41 @@ int main(int argc, char** argv) {
                                   {"ms_per_iteration", per_iter}, {"walk_ms_per_iteration", walk_ms / iterations},
                                   {"mpairs_per_s", mpairs}, {"nodes_per_particle", nodes_per_particle},
                                   {"final_energy", energy}, {"kernels_ms", kernels}};
+        std::cout << j.dump() << '\n';
+      }
+    }
+
+    if (!populations.empty()) {
+      std::printf("\nPopulation on %s: seeding (Sec. 6.1) against grid points alone, add/delete rounds to the end\n",
+                  ctx.info().name.c_str());
+      std::printf("%-16s %-8s %9s %10s %7s %11s %10s %10s %9s\n", "volume", "seeding", "seeds", "particles", "rounds",
+                  "iterations", "ms/iter", "seconds", "ended");
+    }
+    for (const std::string& spec : populations) {
+      const auto colon = spec.find(':');
+      io::SynthOptions po;
+      po.shape = io::parse_synth_shape(spec.substr(0, colon));
+      po.size = colon == std::string::npos ? 48 : std::stoi(spec.substr(colon + 1));
+      const auto pv = io::make_synth_volume(po);
+      const auto PF = fields::build_fields(fields::grid_of(pv.volume), pv.volume.labels.data());
+      for (bool grid_only : {false, true}) {
+        particles::PopulationOptions popt;
+        particles::SeedStats st;
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto seeds = particles::seed_population(PF.embedding, popt, &st, grid_only);
+        const auto r = particles::relax(ctx, PF.embedding, seeds, {}, popt);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        double advect = 0;
+        for (const auto& rr : r.rounds) advect += rr.advect_seconds;
+        const double ms_per_iter = r.iterations ? 1e3 * advect / r.iterations : 0.0;
+        const char* ended = r.settled ? "settled" : r.steady ? "steady" : "limit";
+        std::printf("%-16s %-8s %9zu %10zu %7zu %11d %10.1f %10.2f %9s\n", spec.c_str(), grid_only ? "grid" : "paper",
+                    st.kept, r.population.particles.size(), r.rounds.size(), r.iterations, ms_per_iter, seconds, ended);
+        const nlohmann::json j = {{"benchmark", "population"}, {"device", ctx.info().name}, {"volume", spec},
+                                  {"seeding", grid_only ? "grid" : "paper"}, {"seeds", st.kept},
+                                  {"particles", r.population.particles.size()}, {"rounds", r.rounds.size()},
+                                  {"iterations", r.iterations}, {"ms_per_iteration", ms_per_iter},
+                                  {"seconds", seconds}, {"ended", ended}};
         std::cout << j.dump() << '\n';
       }
     }
