@@ -1,10 +1,11 @@
-// Benchmark of the GPU particle iteration (issue 6): random particles on a sphere at hexagonal density for their
-// sizing, a fixed number of iterations in exact and Barnes-Hut modes, per-kernel GPU time (timestamps), pairs
+// Benchmark of the GPU particle iteration (issue 6): random particles on a sphere and on the wedge ball (all its
+// features) at hexagonal density for their sizing, a fixed number of iterations in exact and Barnes-Hut modes, per-kernel GPU time (timestamps), pairs
 // evaluated per second and the final energy, side by side. Then the population (issue 7) on synthetic volumes:
 // the paper's seeding against grid points alone, each relaxed with add/delete rounds to a settled population:
 // seeds, final particles, rounds, iterations, time. Prints tables and one JSON line per run.
 //   cpmesh-bench-particles [--device D] [--particles 10000,100000] [--iterations 10] [--theta 0.75]
 //                          [--population wedge-ball:48,sphere:64]
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -50,25 +51,19 @@ int main(int argc, char** argv) {
     const auto vol = io::make_synth_volume(so);
     const glm::dvec3 centre(vol.centre[0], vol.centre[1], vol.centre[2]);
     auto F = fields::build_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
-    std::printf("Particle iterations on %s, sphere R = 40 voxels, %d iterations per run\n", ctx.info().name.c_str(),
-                iterations);
-    std::printf("%-10s %-8s %10s %12s %14s %12s %12s %14s\n", "particles", "walk", "ms/iter", "walk ms/iter",
-                "Mpairs/s", "pairs/part", "nodes/part", "final energy");
-    for (uint32_t n : counts) {
-      const float h = float(std::sqrt(4.0 * M_PI * 40.0 * 40.0 / (0.866 * n)));
-      for (auto& p : F.embedding.fine) p.w = h;
-      std::mt19937 rng(n);
-      std::normal_distribution<double> n01;
-      std::vector<glm::vec4> start;
-      while (start.size() < n) {
-        const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
-        const auto cp = ref::cp_lookup(F.embedding, glm::vec3(centre + 40.0 * dir), 0);
-        if (cp.valid) start.push_back(cp.value);
-      }
+    std::printf("Particle iterations on %s, %d iterations per run; sphere: R = 40 voxels in 96^3, wedge ball: 128^3, "
+                "random particles at hexagonal density for h\n",
+                ctx.info().name.c_str(), iterations);
+    std::printf("%-11s %-10s %-8s %10s %12s %14s %12s %12s %14s\n", "volume", "particles", "walk", "ms/iter",
+                "walk ms/iter", "Mpairs/s", "pairs/part", "nodes/part", "final energy");
+    // Times `iterations` steps of both walks from one start and prints a row and a JSON line for each.
+    auto time_modes = [&](const char* volume, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& start,
+                          const std::vector<uint32_t>& features) {
+      const uint32_t n = uint32_t(start.size());
       for (float mode : {0.0f, theta}) {
         particles::AdvectionOptions opt;
         opt.theta = mode;
-        particles::ParticleSystem system(ctx, F.embedding, start, std::vector<uint32_t>(n, 0), opt);
+        particles::ParticleSystem system(ctx, E, start, features, opt);
         system.step();  // warm-up (pipelines, first allocation touches)
         ctx.clear_profile();
         double energy = 0;
@@ -86,25 +81,82 @@ int main(int argc, char** argv) {
         const double per_iter = wall_ms / iterations;
         const double mpairs = double(pairs) / (walk_ms > 0 ? walk_ms : wall_ms) / 1e3;
         const double nodes_per_particle = double(visits) / double(iterations) / double(n);
-        std::printf("%-10u %-8s %10.1f %12.1f %14.2f %12.1f %12.1f %14.6g\n", n, mode > 0 ? "theta" : "exact", per_iter,
-                    walk_ms / iterations, mpairs, double(pairs) / double(iterations) / double(n), nodes_per_particle,
-                    energy);
-        const nlohmann::json j = {{"benchmark", "particles"}, {"device", ctx.info().name}, {"particles", n},
-                                  {"mode", mode > 0 ? "theta" : "exact"}, {"theta", mode}, {"iterations", iterations},
-                                  {"ms_per_iteration", per_iter}, {"walk_ms_per_iteration", walk_ms / iterations},
-                                  {"mpairs_per_s", mpairs}, {"nodes_per_particle", nodes_per_particle},
-                                  {"final_energy", energy}, {"kernels_ms", kernels}};
+        std::printf("%-11s %-10u %-8s %10.1f %12.1f %14.2f %12.1f %12.1f %14.6g\n", volume, n,
+                    mode > 0 ? "theta" : "exact", per_iter, walk_ms / iterations, mpairs,
+                    double(pairs) / double(iterations) / double(n), nodes_per_particle, energy);
+        const nlohmann::json j = {{"benchmark", "particles"}, {"device", ctx.info().name}, {"volume", volume},
+                                  {"particles", n}, {"mode", mode > 0 ? "theta" : "exact"}, {"theta", mode},
+                                  {"iterations", iterations}, {"ms_per_iteration", per_iter},
+                                  {"walk_ms_per_iteration", walk_ms / iterations}, {"mpairs_per_s", mpairs},
+                                  {"nodes_per_particle", nodes_per_particle}, {"final_energy", energy},
+                                  {"kernels_ms", kernels}};
         std::cout << j.dump() << '\n';
       }
+    };
+    for (uint32_t n : counts) {
+      const float h = float(std::sqrt(4.0 * M_PI * 40.0 * 40.0 / (0.866 * n)));
+      for (auto& p : F.embedding.fine) p.w = h;
+      std::mt19937 rng(n);
+      std::normal_distribution<double> n01;
+      std::vector<glm::vec4> start;
+      while (start.size() < n) {
+        const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+        const auto cp = ref::cp_lookup(F.embedding, glm::vec3(centre + 40.0 * dir), 0);
+        if (cp.valid) start.push_back(cp.value);
+      }
+      time_modes("sphere", F.embedding, start, std::vector<uint32_t>(n, 0));
     }
 
-    if (!populations.empty()) {
+    // The wedge ball: particles on all 9 interfaces and 8 triple curves and at the 4 quadruple points, each a random
+    // point of a random touching block of its feature projected by the lookup; h from the interface area (one
+    // touching block per voxel of surface, about) so the count is at hexagonal density.
+    io::SynthOptions wo;
+    wo.shape = io::SynthShape::wedge_ball;
+    wo.size = 128;
+    const auto wv = io::make_synth_volume(wo);
+    auto W = fields::build_fields(fields::grid_of(wv.volume), wv.volume.labels.data());
+    auto& WE = W.embedding;
+    std::vector<std::pair<uint32_t, uint32_t>> touching;  // (slot, feature)
+    size_t interface_blocks = 0;
+    for (size_t slot = 0; slot < WE.keys.size(); ++slot) {
+      if (WE.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
+      const uint32_t f = uint32_t(WE.keys[slot] & 0xffff);
+      if (WE.features[f].kind == fields::FeatureKind::quadruple_point) continue;
+      if (!WE.touches_feature(size_t(WE.keys[slot] >> 16), WE.blocks[slot])) continue;
+      touching.push_back({uint32_t(slot), f});
+      interface_blocks += WE.features[f].kind == fields::FeatureKind::interface;
+    }
+    for (uint32_t n : counts) {
+      const float h = float(std::sqrt(double(interface_blocks) / (0.866 * n)));
+      for (auto& p : WE.fine) p.w = h;
+      std::mt19937 rng(n + 1);
+      std::uniform_int_distribution<size_t> pick(0, touching.size() - 1);
+      std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+      std::vector<glm::vec4> start;
+      std::vector<uint32_t> features;
+      for (const auto& q : WE.quadruple_points) {
+        start.push_back(glm::vec4(glm::vec3(q.position), h));
+        features.push_back(q.feature);
+      }
+      while (start.size() < n) {
+        const auto [slot, f] = touching[pick(rng)];
+        const glm::vec3 cell(WE.grid.local(glm::dvec3(WE.grid.voxel(size_t(WE.keys[slot] >> 16)))));
+        const auto cp = ref::cp_lookup(WE, cell + glm::vec3(u(rng), u(rng), u(rng)), f);
+        if (!cp.valid) continue;
+        start.push_back(cp.value);
+        features.push_back(f);
+      }
+      time_modes("wedge-ball", WE, start, features);
+    }
+
+    if (std::any_of(populations.begin(), populations.end(), [](const std::string& p) { return !p.empty(); })) {
       std::printf("\nPopulation on %s: seeding (Sec. 6.1) against grid points alone, add/delete rounds to the end\n",
                   ctx.info().name.c_str());
       std::printf("%-16s %-8s %9s %10s %7s %11s %10s %10s %9s\n", "volume", "seeding", "seeds", "particles", "rounds",
                   "iterations", "ms/iter", "seconds", "ended");
     }
     for (const std::string& spec : populations) {
+      if (spec.empty()) continue;
       const auto colon = spec.find(':');
       io::SynthOptions po;
       po.shape = io::parse_synth_shape(spec.substr(0, colon));
