@@ -27,6 +27,7 @@ Command add_selftest_command(CLI::App& app, const GlobalOptions& g);
 Command add_info_command(CLI::App& app, const GlobalOptions& g);
 Command add_fields_command(CLI::App& app, const GlobalOptions& g);
 Command add_particles_command(CLI::App& app, const GlobalOptions& g);
+Command add_mesh_command(CLI::App& app, const GlobalOptions& g);
 
 // Prints the per-kernel profile when --profile was given.
 void print_profile(const gpu::Context& ctx, const GlobalOptions& g);

@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
       add_info_command(app, g),
       add_fields_command(app, g),
       add_particles_command(app, g),
+      add_mesh_command(app, g),
   };
 
   try {

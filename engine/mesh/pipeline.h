@@ -1,0 +1,77 @@
+#pragma once
+// The whole pipeline in one call (issue 8): a labeled volume and options in; interface triangle meshes, a tetrahedral
+// mesh of every material, the particles and a report out. The CLI's `cpmesh mesh` is a thin layer over it.
+//
+//   cpmesh::gpu::Context ctx;                       // any Vulkan 1.2 device; lavapipe without a GPU
+//   const auto volume = cpmesh::io::read_volume("labels.nrrd");
+//   cpmesh::mesh::MeshOptions options;              // defaults for medical segmentations
+//   const auto result = cpmesh::mesh::mesh_volume(ctx, volume, options,
+//       [](const std::string& stage) { std::puts(stage.c_str()); });
+//   cpmesh::io::write_vtp("interfaces.vtp", result.surfaces);
+//   cpmesh::io::write_vtu("volume.vtu", result.volume);
+//
+// Stages: fields (indicator fields, embedding, sizing) -> seeding -> advection with add/delete rounds -> Delaunay
+// tetrahedralization of the particles (TetGen) -> tet labelling and interface extraction -> quality report ->
+// constrained quality tet mesh of every material bounded by the interface triangles (TetGen -pqAY).
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "fields/fields_stage.h"
+#include "io/mesh.h"
+#include "io/volume.h"
+#include "mesh/quality.h"
+#include "mesh/tetgen.h"
+#include "particles/population.h"
+
+namespace cpmesh::mesh {
+
+struct MeshOptions {
+  fields::FieldsOptions fields;
+  particles::AdvectionOptions advection;
+  particles::PopulationOptions population;
+  QualityOptions volume;
+  bool only_surfaces = false;  // skip the volume mesh
+};
+
+struct InterfaceReport {
+  std::array<uint16_t, 2> labels{};
+  TriangleStats quality;
+  SurfaceCheck check;
+};
+
+struct MaterialReport {
+  uint16_t label = 0;
+  size_t boundary_triangles = 0;
+  size_t odd_edges = 0;  // 0: its boundary is closed
+  TetStats tets;         // of the volume mesh
+};
+
+struct MeshReport {
+  std::vector<std::pair<std::string, double>> seconds;  // per stage
+  size_t particles = 0, rounds = 0;
+  int iterations = 0;
+  bool settled = false, steady = false;
+  size_t delaunay_tets = 0;
+  TriangleStats surface;  // all interface triangles
+  std::vector<InterfaceReport> interfaces;
+  std::vector<MaterialReport> materials;
+  TetStats volume;           // the whole volume mesh
+  std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
+  size_t interfaces_manifold = 0, materials_closed = 0;
+};
+
+struct MeshResult {
+  io::TriangleMesh surfaces;   // every interface, physical units, triangle_pair = labels (normal into the second)
+  io::TetMesh volume;          // tets with their labels, plus the interface triangles; empty with only_surfaces
+  io::TriangleMesh particles;  // the settled particles as points (feature kind, sizing)
+  MeshReport report;
+};
+
+using StageCallback = std::function<void(const std::string& stage)>;
+
+MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const MeshOptions& options = {},
+                       const StageCallback& on_stage = {});
+
+}  // namespace cpmesh::mesh

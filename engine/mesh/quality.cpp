@@ -1,0 +1,112 @@
+#include "mesh/quality.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace cpmesh::mesh {
+
+double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+  const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+  if (area <= 0 || la * lb * lc <= 0) return 0;
+  const double r_in = 2 * area / (la + lb + lc), r_circ = la * lb * lc / (4 * area);
+  return 2 * r_in / r_circ;
+}
+
+std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  const glm::dvec3 p[4] = {a, b, c, d};
+  // Outward normal of the face opposite corner k.
+  auto normal = [&](int k) {
+    const int i = (k + 1) % 4, j = (k + 2) % 4, l = (k + 3) % 4;
+    glm::dvec3 n = glm::cross(p[j] - p[i], p[l] - p[i]);
+    if (glm::dot(n, p[k] - p[i]) > 0) n = -n;
+    const double len = glm::length(n);
+    return len > 0 ? n / len : n;
+  };
+  glm::dvec3 n[4];
+  for (int k = 0; k < 4; ++k) n[k] = normal(k);
+  // The dihedral angle at edge (i, j) is between the faces opposite the other two corners k, l: pi - angle(n_k, n_l).
+  std::array<double, 6> out;
+  int e = 0;
+  for (int k = 0; k < 4; ++k)
+    for (int l = k + 1; l < 4; ++l) out[size_t(e++)] = M_PI - std::acos(std::clamp(glm::dot(n[k], n[l]), -1.0, 1.0));
+  return out;
+}
+
+double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  // Circumcentre of the tet: solve 2 (p - a) . x = |p|^2 - |a|^2 relative to a.
+  const glm::dvec3 u = b - a, v = c - a, w = d - a;
+  const double det = glm::dot(u, glm::cross(v, w));
+  if (std::fabs(det) < 1e-300) return std::numeric_limits<double>::infinity();
+  const glm::dvec3 x = (glm::dot(u, u) * glm::cross(v, w) + glm::dot(v, v) * glm::cross(w, u) + glm::dot(w, w) * glm::cross(u, v)) / (2 * det);
+  const double shortest = std::min({glm::length(u), glm::length(v), glm::length(w), glm::length(c - b), glm::length(d - b), glm::length(d - c)});
+  return glm::length(x) / shortest;
+}
+
+TriangleStats triangle_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 3>>& T) {
+  TriangleStats s;
+  s.triangles = T.size();
+  if (T.empty()) return s;
+  s.min_radius_ratio = 1;
+  size_t below = 0;
+  for (const auto& t : T) {
+    const double q = radius_ratio(V[t[0]], V[t[1]], V[t[2]]);
+    s.mean_radius_ratio += q;
+    s.min_radius_ratio = std::min(s.min_radius_ratio, q);
+    below += q < 0.5;
+  }
+  s.mean_radius_ratio /= double(T.size());
+  s.share_below_half = double(below) / double(T.size());
+  return s;
+}
+
+namespace {
+std::map<std::pair<uint32_t, uint32_t>, int> edge_uses(const std::vector<std::array<uint32_t, 3>>& T) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (const auto& t : T)
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = t[size_t(e)], b = t[size_t((e + 1) % 3)];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  return uses;
+}
+}  // namespace
+
+SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& T, const std::vector<uint8_t>& on_curve) {
+  SurfaceCheck c;
+  for (const auto& [edge, n] : edge_uses(T)) {
+    if (n > 2) ++c.nonmanifold_edges;
+    if (n == 1) {
+      ++c.boundary_edges;
+      if (!(on_curve[edge.first] && on_curve[edge.second])) ++c.open_edges;
+    }
+  }
+  return c;
+}
+
+size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& T) {
+  size_t odd = 0;
+  for (const auto& [edge, n] : edge_uses(T)) odd += n % 2;
+  return odd;
+}
+
+TetStats tet_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 4>>& tets) {
+  TetStats s;
+  s.tets = tets.size();
+  if (tets.empty()) return s;
+  s.min_dihedral_deg = 180;
+  for (const auto& t : tets) {
+    for (double a : dihedral_angles(V[t[0]], V[t[1]], V[t[2]], V[t[3]])) {
+      s.min_dihedral_deg = std::min(s.min_dihedral_deg, a * 180 / M_PI);
+      s.max_dihedral_deg = std::max(s.max_dihedral_deg, a * 180 / M_PI);
+    }
+    const double re = radius_edge_ratio(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
+    s.max_radius_edge = std::max(s.max_radius_edge, re);
+    s.mean_radius_edge += re;
+  }
+  s.mean_radius_edge /= double(tets.size());
+  return s;
+}
+
+}  // namespace cpmesh::mesh

@@ -1,0 +1,44 @@
+#pragma once
+// Mesh quality measures (DESIGN.md "Quality measures"), computed once here for the CLI, the report and the tests.
+//  - Triangles: radius ratio 2 r_in / r_circ (1 for equilateral): mean, min, share below 0.5.
+//  - Interfaces: manifold (no edge in more than two of its triangles) and bounded by triple curves (an edge in only
+//    one of its triangles has both ends on a triple curve or quadruple point).
+//  - Materials: closed (every edge of the material's boundary triangles is used an even number of times).
+//  - Tets: dihedral angles (min, max) and radius-edge ratio (circumradius / shortest edge).
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cpmesh::mesh {
+
+double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
+// The six dihedral angles of a tet, radians.
+std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+
+struct TriangleStats {
+  size_t triangles = 0;
+  double mean_radius_ratio = 0, min_radius_ratio = 0, share_below_half = 0;
+};
+TriangleStats triangle_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 3>>& triangles);
+
+struct SurfaceCheck {
+  size_t nonmanifold_edges = 0;  // in more than two triangles
+  size_t boundary_edges = 0;     // in exactly one triangle
+  size_t open_edges = 0;         // boundary edges not on a triple curve (vertex kinds 0/1 at both ends)
+  bool manifold() const { return nonmanifold_edges == 0 && open_edges == 0; }
+};
+// vertex_on_curve[v]: the vertex is a triple-curve or quadruple-point particle.
+SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint8_t>& vertex_on_curve);
+// Edges of the triangles used an odd number of times (0: closed).
+size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& triangles);
+
+struct TetStats {
+  size_t tets = 0;
+  double min_dihedral_deg = 0, max_dihedral_deg = 0, max_radius_edge = 0, mean_radius_edge = 0;
+};
+TetStats tet_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets);
+
+}  // namespace cpmesh::mesh

@@ -1,0 +1,44 @@
+#pragma once
+// TetGen (Si 2015, library calls, never a subprocess), behind a small interface: tetgen.h defines macros that must
+// not leak, so only tetgen.cpp includes it.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cpmesh::mesh {
+
+struct Tets {
+  std::vector<glm::dvec3> points;              // may grow (Steiner points) in a constrained mesh
+  std::vector<std::array<uint32_t, 4>> tets;
+  std::vector<int> region;                      // per tet: region attribute (constrained meshes), else empty
+  std::vector<std::array<uint32_t, 3>> faces;   // boundary/interface faces kept (constrained meshes)
+  std::vector<int> face_marker;                 // per face: the input facet marker
+};
+
+// Delaunay tetrahedralization of a point set (TetGen "Qz"). Duplicate points are merged by TetGen; every output
+// index refers to the input points.
+Tets delaunay(const std::vector<glm::dvec3>& points);
+
+struct QualityOptions {
+  double max_radius_edge = 1.5;  // TetGen -q ratio
+  double min_dihedral = 12.0;    // degrees, TetGen -q second value
+  double max_volume = 0;         // TetGen -a (0: no limit)
+  bool keep_surface = true;      // TetGen -Y: no Steiner points on the input triangles
+};
+
+struct Region {
+  glm::dvec3 seed;  // a point inside the region
+  int attribute;
+};
+
+// Quality constrained tetrahedralization of the closed triangle surfaces `triangles` over `points` (TetGen
+// "pq/AY"), each region labelled by the attribute of the seed inside it; space outside every closed surface is not
+// meshed. Markers are carried to the output faces. Throws std::runtime_error with TetGen's reason on failure.
+Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                         const std::vector<int>& markers, const std::vector<Region>& regions,
+                         const QualityOptions& options);
+
+}  // namespace cpmesh::mesh

@@ -1,0 +1,153 @@
+// `cpmesh mesh`: the whole pipeline (engine/mesh/pipeline.h): labels in; interface meshes, a tet mesh of every
+// material, the particles and report.json out; a progress line per stage and a summary table.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "io/atomic_file.h"
+#include "io/mesh_writers.h"
+#include "mesh/pipeline.h"
+#include "volume_input.h"
+
+namespace cpmesh::cli {
+
+namespace {
+
+nlohmann::json triangle_json(const mesh::TriangleStats& s) {
+  return {{"triangles", s.triangles}, {"mean_radius_ratio", s.mean_radius_ratio},
+          {"min_radius_ratio", s.min_radius_ratio}, {"share_below_0_5", s.share_below_half}};
+}
+nlohmann::json tet_json(const mesh::TetStats& s) {
+  return {{"tets", s.tets}, {"min_dihedral_deg", s.min_dihedral_deg}, {"max_dihedral_deg", s.max_dihedral_deg},
+          {"max_radius_edge", s.max_radius_edge}, {"mean_radius_edge", s.mean_radius_edge}};
+}
+
+}  // namespace
+
+Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
+  struct Options {
+    VolumeInput input;
+    std::string out;
+    std::string format = "vtp";
+    std::string volume_format = "vtu";
+    mesh::MeshOptions mesh;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand(
+      "mesh", "Mesh a labeled volume: interface triangle meshes (one per material pair, conforming along triple "
+              "curves), a quality tet mesh of every material, the particles and report.json");
+  add_volume_input(sub, o->input);
+  sub->add_option("-o,--out", o->out, "Output directory (created)")->required();
+  sub->add_option("--format", o->format, "Interface mesh format")
+      ->check(CLI::IsMember({"vtp", "ply", "obj", "stl"}))
+      ->capture_default_str();
+  sub->add_option("--volume-format", o->volume_format, "Tet mesh format: vtu, mesh (Medit) or tetgen (.node/.ele/.face)")
+      ->check(CLI::IsMember({"vtu", "mesh", "tetgen"}))
+      ->capture_default_str();
+  auto& m = o->mesh;
+  sub->add_option("--min-size", m.fields.sizing.h_min, "Smallest h, physical units (0: a quarter voxel)")->capture_default_str();
+  sub->add_option("--max-size", m.fields.sizing.h_max, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
+  sub->add_option("--density", m.fields.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
+  sub->add_option("--tighten", m.fields.indicator.tighten_radius, "Tightening radius, voxels (0: off)")->capture_default_str();
+  sub->add_option("--theta", m.advection.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
+  sub->add_option("--seed", m.population.seed, "Random seed (same seed, same mesh)")->capture_default_str();
+  sub->add_option("--max-radius-edge", m.volume.max_radius_edge, "Volume mesh: largest tet radius-edge ratio")->capture_default_str();
+  sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle, degrees")->capture_default_str();
+  sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
+  sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
+  return {sub, [o, &g] {
+            const bool tty = isatty(STDERR_FILENO) != 0;
+            const io::LabelVolume volume = read_volume_input(o->input);
+            gpu::Context ctx(g.context());
+            int stage = 0;
+            const auto r = mesh::mesh_volume(ctx, volume, o->mesh, [&](const std::string& name) {
+              if (tty) std::fprintf(stderr, "[%d/%d] %s ...\n", ++stage, o->mesh.only_surfaces ? 6 : 7, name.c_str());
+            });
+            const auto& rep = r.report;
+            std::filesystem::create_directories(o->out);
+            const std::string dir = o->out + "/";
+            io::write_triangle_mesh(dir + "interfaces." + o->format, r.surfaces);
+            std::set<std::array<uint16_t, 2>> pairs(r.surfaces.triangle_pair.begin(), r.surfaces.triangle_pair.end());
+            for (const auto& pr : pairs) {
+              io::TriangleMesh one;
+              one.vertices = r.surfaces.vertices;
+              one.vertex_feature = r.surfaces.vertex_feature;
+              for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)
+                if (r.surfaces.triangle_pair[i] == pr) {
+                  one.triangles.push_back(r.surfaces.triangles[i]);
+                  one.triangle_pair.push_back(pr);
+                }
+              io::write_triangle_mesh(dir + "interface_" + std::to_string(pr[0]) + "_" + std::to_string(pr[1]) + "." + o->format, one);
+            }
+            io::write_vtp(dir + "particles.vtp", r.particles);
+            if (!r.volume.tets.empty()) {
+              if (o->volume_format == "vtu") io::write_vtu(dir + "volume.vtu", r.volume);
+              else if (o->volume_format == "mesh") io::write_medit(dir + "volume.mesh", r.volume);
+              else io::write_tetgen(dir + "volume", r.volume);
+            }
+            nlohmann::json j;
+            j["volume"] = volume.source;
+            j["device"] = ctx.info().name;
+            j["seconds"] = nlohmann::json::object();
+            for (const auto& [name, s] : rep.seconds) j["seconds"][name] = s;
+            j["particles"] = rep.particles;
+            j["iterations"] = rep.iterations;
+            j["rounds"] = rep.rounds;
+            j["population_settled"] = rep.settled;
+            j["population_steady"] = rep.steady;
+            j["surface"] = triangle_json(rep.surface);
+            j["interfaces"] = nlohmann::json::array();
+            for (const auto& ir : rep.interfaces) {
+              auto e = triangle_json(ir.quality);
+              e["labels"] = ir.labels;
+              e["nonmanifold_edges"] = ir.check.nonmanifold_edges;
+              e["boundary_edges"] = ir.check.boundary_edges;
+              e["open_edges"] = ir.check.open_edges;
+              e["manifold"] = ir.check.manifold();
+              j["interfaces"].push_back(e);
+            }
+            j["materials"] = nlohmann::json::array();
+            for (const auto& mr : rep.materials)
+              j["materials"].push_back({{"label", mr.label}, {"boundary_triangles", mr.boundary_triangles},
+                                        {"odd_edges", mr.odd_edges}, {"closed", mr.odd_edges == 0},
+                                        {"volume_mesh", tet_json(mr.tets)}});
+            j["volume_mesh"] = tet_json(rep.volume);
+            if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
+            io::write_atomically(dir + "report.json", [&](std::ostream& out) { out << j.dump(2) << '\n'; });
+
+            std::printf("%s: %zu particles (%d iterations, %zu rounds), %zu interface triangles, %zu tets\n",
+                        volume.source.c_str(), rep.particles, rep.iterations, rep.rounds, rep.surface.triangles,
+                        rep.volume.tets);
+            std::printf("  %-20s %9s\n", "stage", "seconds");
+            double total = 0;
+            for (const auto& [name, s] : rep.seconds) {
+              std::printf("  %-20s %9.2f\n", name.c_str(), s);
+              total += s;
+            }
+            std::printf("  %-20s %9.2f\n", "total", total);
+            std::printf("  %-10s %10s %8s %8s %8s %9s\n", "interface", "triangles", "mean rr", "min rr", "<0.5", "manifold");
+            for (const auto& ir : rep.interfaces)
+              std::printf("  %4u/%-5u %10zu %8.3f %8.3f %7.1f%% %9s\n", ir.labels[0], ir.labels[1], ir.quality.triangles,
+                          ir.quality.mean_radius_ratio, ir.quality.min_radius_ratio, 100 * ir.quality.share_below_half,
+                          ir.check.manifold() ? "yes" : "no");
+            std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials closed\n",
+                        rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
+                        rep.interfaces.size(), rep.materials_closed, rep.materials.size());
+            if (!o->mesh.only_surfaces) {
+              if (rep.volume_error.empty())
+                std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg, radius-edge max %.2f\n",
+                            rep.volume.tets, rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
+                            rep.volume.max_radius_edge);
+              else
+                std::printf("  volume mesh not made: %s\n", rep.volume_error.c_str());
+            }
+            std::printf("  wrote %s\n", o->out.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace cpmesh::cli
