@@ -1,6 +1,7 @@
 #include "mesh/extract.h"
 
 #include <algorithm>
+#include <numeric>
 
 #include <tbb/parallel_for.h>
 
@@ -9,12 +10,6 @@ namespace cpmesh::mesh {
 namespace {
 
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // face opposite corner c
-
-uint64_t face_key(uint32_t a, uint32_t b, uint32_t c) {
-  uint32_t v[3] = {a, b, c};
-  std::sort(v, v + 3);
-  return (uint64_t(v[0]) << 42) | (uint64_t(v[1]) << 21) | uint64_t(v[2]);
-}
 
 }  // namespace
 
@@ -25,6 +20,36 @@ glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dve
   ok = std::fabs(det) > 1e-9 * scale;
   if (!ok) return (a + b + c + d) / 4.0;
   return a + (glm::dot(u, u) * glm::cross(v, w) + glm::dot(v, v) * glm::cross(w, u) + glm::dot(w, w) * glm::cross(u, v)) / (2 * det);
+}
+
+Adjacency build_adjacency(const Tets& T) {
+  if (T.points.size() >= (size_t(1) << 21)) throw std::runtime_error("tet adjacency: at most 2M vertices");
+  std::vector<std::pair<uint64_t, uint32_t>> faces;  // (sorted vertex key, tet * 4 + corner)
+  faces.reserve(T.tets.size() * 4);
+  for (size_t t = 0; t < T.tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) {
+      uint32_t v[3] = {T.tets[t][size_t(kFace[c][0])], T.tets[t][size_t(kFace[c][1])], T.tets[t][size_t(kFace[c][2])]};
+      std::sort(v, v + 3);
+      faces.push_back({(uint64_t(v[0]) << 42) | (uint64_t(v[1]) << 21) | uint64_t(v[2]), uint32_t(t * 4 + size_t(c))});
+    }
+  std::sort(faces.begin(), faces.end());
+  Adjacency adj;
+  adj.neighbour.assign(T.tets.size() * 4, Adjacency::kHull);
+  for (size_t i = 0; i + 1 < faces.size(); ++i)
+    if (faces[i].first == faces[i + 1].first) {
+      adj.neighbour[faces[i].second] = faces[i + 1].second;
+      adj.neighbour[faces[i + 1].second] = faces[i].second;
+    }
+  return adj;
+}
+
+std::array<uint32_t, 3> outward_face(const Tets& T, uint32_t tc) {
+  const auto& v = T.tets[tc / 4];
+  const int c = int(tc % 4);
+  std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
+  const glm::dvec3 n = glm::cross(T.points[f[1]] - T.points[f[0]], T.points[f[2]] - T.points[f[0]]);
+  if (glm::dot(n, T.points[v[size_t(c)]] - T.points[f[0]]) > 0) std::swap(f[1], f[2]);
+  return f;
 }
 
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& F, const Tets& T) {
@@ -39,57 +64,123 @@ std::vector<uint16_t> label_tets(const fields::IndicatorFields& F, const Tets& T
   return m;
 }
 
-InterfaceMesh extract_interfaces(const fields::IndicatorFields& F, const Tets& T, const std::vector<uint16_t>& material,
-                                 const std::vector<uint8_t>& vertex_kind) {
-  if (T.points.size() >= (size_t(1) << 21)) throw std::runtime_error("interface extraction: at most 2M vertices");
+std::vector<uint16_t> hull_materials(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj) {
+  std::vector<uint16_t> out(adj.neighbour.size(), 0);
+  const double step = 0.5 * F.grid.min_spacing();
+  const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    if (adj.neighbour[tc] != Adjacency::kHull) continue;
+    const auto f = outward_face(T, tc);
+    const glm::dvec3 c = (T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0;
+    const glm::dvec3 n = glm::normalize(glm::cross(T.points[f[1]] - T.points[f[0]], T.points[f[2]] - T.points[f[0]]));
+    out[tc] = uint16_t(F.material_at(glm::clamp((c + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
+  }
+  return out;
+}
+
+size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                     const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes) {
+  auto other = [&](uint32_t tc) { return adj.neighbour[tc] == Adjacency::kHull ? hull[tc] : material[adj.neighbour[tc] / 4]; };
+  // A face between materials a != b is wrong when one of its vertices does not lie on a feature bounding both.
+  auto wrong = [&](uint32_t tc, uint16_t m) {
+    const uint16_t o = other(tc);
+    if (o == m) return false;
+    const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+    const auto& v = T.tets[tc / 4];
+    const int c = int(tc % 4);
+    for (int k = 0; k < 3; ++k)
+      if ((vertex_materials[v[size_t(kFace[c][k])]] & need) != need) return true;
+    return false;
+  };
+  auto cost = [&](uint32_t t, uint16_t m) {
+    int n = 0;
+    for (uint32_t c = 0; c < 4; ++c) n += wrong(t * 4 + c, m);
+    return n;
+  };
+  size_t changed = 0;
+  for (int pass = 0; pass < passes; ++pass) {
+    size_t changes = 0;
+    for (uint32_t t = 0; t < T.tets.size(); ++t) {
+      const int now = cost(t, material[t]);
+      if (now == 0) continue;
+      int best = now;
+      uint16_t best_m = material[t];
+      // Candidates: the neighbours' materials and every material a vertex of the tet lies on.
+      uint64_t candidates = 0;
+      for (uint32_t c = 0; c < 4; ++c) candidates |= uint64_t(1) << (other(t * 4 + c) & 63);
+      for (uint32_t v : T.tets[t]) candidates |= vertex_materials[v];
+      for (uint16_t m = 0; m < 64; ++m) {
+        if (!(candidates >> m & 1) || m == material[t]) continue;
+        const int k = cost(t, m);
+        if (k < best) {
+          best = k;
+          best_m = m;
+        }
+      }
+      if (best_m != material[t]) {
+        material[t] = best_m;
+        ++changes;
+      }
+    }
+    changed += changes;
+    if (changes == 0) break;
+  }
+  return changed;
+}
+
+size_t count_wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                         const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
+  size_t n = 0;
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    const uint32_t nb = adj.neighbour[tc];
+    if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
+    const uint16_t m = material[tc / 4], o = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
+    if (m == o) continue;
+    const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+    const auto f = outward_face(T, tc);
+    for (uint32_t v : f)
+      if ((vertex_materials[v] & need) != need) {
+        ++n;
+        break;
+      }
+  }
+  return n;
+}
+
+InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                 const std::vector<uint16_t>& material, const std::vector<uint8_t>& vertex_kind) {
   InterfaceMesh out;
   out.vertices = T.points;
   out.vertex_kind = vertex_kind;
-  // Faces sorted by key: a face shared by two tets appears twice in a row.
-  std::vector<std::pair<uint64_t, uint32_t>> faces;  // (key, tet * 4 + corner)
-  faces.reserve(T.tets.size() * 4);
-  for (size_t t = 0; t < T.tets.size(); ++t)
-    for (int c = 0; c < 4; ++c) {
-      const auto& v = T.tets[t];
-      faces.push_back({face_key(v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]), uint32_t(t * 4 + size_t(c))});
-    }
-  std::sort(faces.begin(), faces.end());
-  // The face of tet t opposite corner c, oriented with its normal pointing out of t.
-  auto outward = [&](uint32_t tc) {
-    const auto& v = T.tets[tc / 4];
-    const int c = int(tc % 4);
-    std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
-    const glm::dvec3 n = glm::cross(T.points[f[1]] - T.points[f[0]], T.points[f[2]] - T.points[f[0]]);
-    if (glm::dot(n, T.points[v[size_t(c)]] - T.points[f[0]]) > 0) std::swap(f[1], f[2]);
-    return f;
-  };
-  const double step = 0.5 * F.grid.min_spacing();
-  for (size_t i = 0; i < faces.size();) {
-    const bool shared = i + 1 < faces.size() && faces[i + 1].first == faces[i].first;
-    const uint32_t a = faces[i].second;
-    const uint16_t ma = material[a / 4];
-    uint16_t mb;
-    if (shared) {
-      mb = material[faces[i + 1].second / 4];
-    } else {
-      // A hull face: the material just outside it.
-      const auto f = outward(a);
-      const glm::dvec3 c = (T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0;
-      const glm::dvec3 n = glm::normalize(glm::cross(T.points[f[1]] - T.points[f[0]], T.points[f[2]] - T.points[f[0]]));
-      mb = uint16_t(F.material_at((c + step * n) / F.grid.spacing));
-    }
-    if (ma != mb) {
-      // Emit from the side of the smaller material index, so the normal points into the larger one.
-      uint32_t from = a;
-      if (ma > mb && shared) from = faces[i + 1].second;
-      auto f = outward(from);
-      if (ma > mb && !shared) std::swap(f[1], f[2]);  // only tet a exists: flip to point into the larger (a's) side
-      out.triangles.push_back(f);
-      out.pair.push_back({std::min(ma, mb), std::max(ma, mb)});
-    }
-    i += shared ? 2 : 1;
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    const uint32_t nb = adj.neighbour[tc];
+    if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
+    const uint16_t ma = material[tc / 4], mb = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
+    if (ma == mb) continue;
+    // Oriented out of the smaller material's side, so the normal points into the larger one.
+    auto f = outward_face(T, tc);
+    if (ma > mb) std::swap(f[1], f[2]);
+    out.triangles.push_back(f);
+    out.pair.push_back({std::min(ma, mb), std::max(ma, mb)});
   }
   return out;
+}
+
+std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& material) {
+  std::vector<uint32_t> parent(T.tets.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    const uint32_t nb = adj.neighbour[tc];
+    if (nb != Adjacency::kHull && material[tc / 4] == material[nb / 4]) parent[find(tc / 4)] = find(nb / 4);
+  }
+  std::vector<uint32_t> reps;
+  for (uint32_t t = 0; t < T.tets.size(); ++t)
+    if (find(t) == t) reps.push_back(t);
+  return reps;
 }
 
 }  // namespace cpmesh::mesh

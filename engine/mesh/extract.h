@@ -1,9 +1,17 @@
 #pragma once
-// Interface extraction (seed paper Sec. 3.2, after BioMesh3D): the Delaunay tetrahedra of the settled particles are
-// labelled with the material at their circumcentre (argmax of the indicator fields), and every face between two tets of
-// different materials, or between a tet and the outside of the convex hull where another material lies, becomes an
-// interface triangle. The vertices are the particles themselves, so the interfaces share their vertices exactly along
-// triple curves and at quadruple points.
+// Interface extraction (seed paper Sec. 3.2, after BioMesh3D). The Delaunay tetrahedra of the settled particles are
+// labelled with the material at their circumcentre (a Voronoi vertex of the particles), so a face is an interface
+// face exactly when its dual Voronoi edge crosses an interface: the restricted Delaunay triangulation, whose
+// triangles on a well-spread sampling are the surface's own, with no slivers through it. Faces on the convex hull
+// take the material just outside them. The vertices are the particles themselves, so the interfaces share their
+// vertices exactly along triple curves and at quadruple points.
+//
+// Repair: near triple curves a circumcentre can fall in a third material, giving an interface triangle with a vertex
+// that does not lie on that interface (a particle of interface (a, b) in a triangle between a and c): the interface
+// would then end away from its curve. repair_labels relabels such tets, one at a time, each with the material of a
+// neighbour that leaves the fewest wrong faces around it, until no change helps; a face is right when each of its
+// vertices lies on a feature bounding both of its materials. With no wrong face left, every interface's boundary
+// lies on triple curves. Boundaries between labelled tet regions are closed by construction.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -20,14 +28,31 @@ struct InterfaceMesh {
   std::vector<std::array<uint16_t, 2>> pair;       // material indices (IndicatorFields::labels), pair[0] < pair[1]
 };
 
-// Material index of every tet, at its circumcentre (a Voronoi vertex of the particles): a face is then an interface
-// face exactly when its dual Voronoi edge crosses an interface, the restricted Delaunay triangulation, whose
-// triangles on a well-spread sampling are the surface's own (no slivers through it). Circumcentres beyond the grid
-// are clamped to it; a flat tet uses its centroid.
-glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d, bool& ok);
-std::vector<uint16_t> label_tets(const fields::IndicatorFields& fields, const Tets& tets);
+// Face neighbours: neighbour[t * 4 + c] is the (tet * 4 + corner) across the face of tet t opposite corner c.
+struct Adjacency {
+  static constexpr uint32_t kHull = ~0u;
+  std::vector<uint32_t> neighbour;
+};
+Adjacency build_adjacency(const Tets& tets);
+// The face of tet tc / 4 opposite corner tc % 4, ordered so its normal points out of the tet.
+std::array<uint32_t, 3> outward_face(const Tets& tets, uint32_t tc);
 
-InterfaceMesh extract_interfaces(const fields::IndicatorFields& fields, const Tets& tets,
-                                 const std::vector<uint16_t>& tet_material, const std::vector<uint8_t>& vertex_kind);
+glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d, bool& ok);
+// Material index of every tet at its circumcentre (clamped to the grid; a flat tet uses its centroid).
+std::vector<uint16_t> label_tets(const fields::IndicatorFields& fields, const Tets& tets);
+// Per hull face (indexed like Adjacency::neighbour): the material half a voxel outside it; 0 for inner faces.
+std::vector<uint16_t> hull_materials(const fields::IndicatorFields& fields, const Tets& tets, const Adjacency& adj);
+
+// vertex_materials[v]: bit m set when particle v lies on a feature bounding material m. Returns tets relabelled.
+size_t repair_labels(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                     const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes = 50);
+size_t count_wrong_faces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                         const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material);
+
+InterfaceMesh extract_interfaces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                 const std::vector<uint16_t>& material, const std::vector<uint8_t>& vertex_kind);
+
+// One tet per connected set of same-material tets (through shared faces).
+std::vector<uint32_t> component_representatives(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& material);
 
 }  // namespace cpmesh::mesh

@@ -1,47 +1,17 @@
 #include "mesh/pipeline.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <map>
 #include <numeric>
 
 #include "fields/volume_grid.h"
 #include "mesh/extract.h"
+#include "ref/cp_lookup.h"
 
 namespace cpmesh::mesh {
 
-namespace {
-
-// One tet per connected set of same-material Delaunay tets (through shared faces): the region seeds of the
-// constrained mesh, so every component of every material gets its attribute.
-std::vector<uint32_t> component_representatives(const Tets& T, const std::vector<uint16_t>& material) {
-  std::vector<uint32_t> parent(T.tets.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  std::vector<std::pair<uint64_t, uint32_t>> faces;
-  faces.reserve(T.tets.size() * 4);
-  for (size_t t = 0; t < T.tets.size(); ++t)
-    for (int c = 0; c < 4; ++c) {
-      uint32_t v[3], k = 0;
-      for (int a = 0; a < 4; ++a)
-        if (a != c) v[k++] = T.tets[t][size_t(a)];
-      std::sort(v, v + 3);
-      faces.push_back({(uint64_t(v[0]) << 42) | (uint64_t(v[1]) << 21) | v[2], uint32_t(t)});
-    }
-  std::sort(faces.begin(), faces.end());
-  for (size_t i = 0; i + 1 < faces.size(); ++i)
-    if (faces[i].first == faces[i + 1].first && material[faces[i].second] == material[faces[i + 1].second])
-      parent[find(faces[i].second)] = find(faces[i + 1].second);
-  std::vector<uint32_t> reps;
-  for (uint32_t t = 0; t < T.tets.size(); ++t)
-    if (find(t) == t) reps.push_back(t);
-  return reps;
-}
-
-}  // namespace
 
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const MeshOptions& options,
                        const StageCallback& on_stage) {
@@ -81,17 +51,73 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const M
   begin("tetrahedralization");
   std::vector<glm::dvec3> points;
   std::vector<uint8_t> kind;
-  for (size_t i = 0; i < P.particles.size(); ++i) {
-    points.push_back(glm::dvec3(glm::vec3(P.particles[i])));
-    kind.push_back(uint8_t(F.embedding.features[P.features[i]].kind));
-  }
-  const Tets T = delaunay(points);
-  rep.delaunay_tets = T.tets.size();
+  std::vector<uint64_t> vertex_materials;
+  std::vector<float> vertex_h;
+  auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
+    const auto& feat = F.embedding.features[f];
+    uint64_t mask = 0;
+    for (int a = 0; a < feat.material_count(); ++a) mask |= uint64_t(1) << (feat.materials[size_t(a)] & 63);
+    points.push_back(p);
+    kind.push_back(uint8_t(feat.kind));
+    vertex_materials.push_back(mask);
+    vertex_h.push_back(h);
+  };
+  for (size_t i = 0; i < P.particles.size(); ++i)
+    add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
   stage_done("tetrahedralization");
 
+  // Delaunay, labels, repair; where wrong faces are left (a triangle spanning a triple curve that is sampled too
+  // sparsely there), add the curve's closest point to the wrong face's centroid and start again.
   begin("extraction");
-  const auto material = label_tets(F.fields, T);
-  const InterfaceMesh I = extract_interfaces(F.fields, T, material, kind);
+  Tets T;
+  Adjacency adj;
+  std::vector<uint16_t> material, hull;
+  for (int round = 0;; ++round) {
+    T = delaunay(points);
+    material = label_tets(F.fields, T);
+    adj = build_adjacency(T);
+    hull = hull_materials(F.fields, T, adj);
+    const size_t before = count_wrong_faces(T, adj, hull, vertex_materials, material);
+    if (round == 0) rep.wrong_faces_before_repair = before;
+    rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
+    rep.wrong_faces = count_wrong_faces(T, adj, hull, vertex_materials, material);
+    if (rep.wrong_faces == 0 || round == options.repair_rounds) break;
+    size_t added = 0;
+    for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+      const uint32_t nb = adj.neighbour[tc];
+      if (nb != Adjacency::kHull && nb < tc) continue;
+      const uint16_t m = material[tc / 4], o = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
+      if (m == o) continue;
+      const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+      const auto f = outward_face(T, tc);
+      uint64_t all = need;
+      bool wrong = false;
+      for (uint32_t v : f) {
+        all |= vertex_materials[v];
+        wrong |= (vertex_materials[v] & need) != need;
+      }
+      if (!wrong || std::popcount(all) != 3) continue;
+      std::array<uint16_t, 4> mats = {0xffff, 0xffff, 0xffff, 0xffff};
+      for (int b = 0, k = 0; b < 64; ++b)
+        if (all >> b & 1) mats[size_t(k++)] = uint16_t(b);
+      const int curve = F.embedding.feature_index(fields::FeatureKind::triple_curve, mats);
+      if (curve < 0) continue;
+      const glm::dvec3 c = (T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0;
+      const auto cp = ref::cp_lookup(F.embedding, glm::vec3(c), uint32_t(curve));
+      if (!cp.valid) continue;
+      const glm::dvec3 q(glm::vec3(cp.value));
+      bool crowded = false;  // an earlier insertion (or a particle) already there
+      for (size_t v = P.particles.size(); v < points.size() && !crowded; ++v) crowded = glm::length(points[v] - q) < 0.3 * cp.value.w;
+      for (uint32_t v : f) crowded = crowded || glm::length(points[v] - q) < 0.3 * cp.value.w;
+      if (crowded) continue;
+      add_vertex(q, uint32_t(curve), cp.value.w);
+      ++added;
+    }
+    rep.added_curve_points += added;
+    if (added == 0) break;
+  }
+  rep.delaunay_tets = T.tets.size();
+  const InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
   stage_done("extraction");
 
   begin("quality");
@@ -131,14 +157,12 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const M
   result.surfaces.vertex_feature = kind;
   result.particles.vertices = result.surfaces.vertices;
   result.particles.vertex_feature = kind;
-  std::vector<float> h;
-  for (const auto& p : P.particles) h.push_back(p.w);
-  result.particles.vertex_scalars = {{"sizing", h}};
+  result.particles.vertex_scalars = {{"sizing", vertex_h}};
 
   if (!options.only_surfaces) {
     begin("volume mesh");
     std::vector<Region> regions;
-    for (uint32_t t : component_representatives(T, material)) {
+    for (uint32_t t : component_representatives(T, adj, material)) {
       glm::dvec3 c(0.0);
       for (uint32_t v : T.tets[t]) c += T.points[v];
       regions.push_back({c / 4.0, int(material[t]) + 1});

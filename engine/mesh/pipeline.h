@@ -3,7 +3,7 @@
 // mesh of every material, the particles and a report out. The CLI's `cpmesh mesh` is a thin layer over it.
 //
 //   cpmesh::gpu::Context ctx;                       // any Vulkan 1.2 device; lavapipe without a GPU
-//   const auto volume = cpmesh::io::read_volume("labels.nrrd");
+//   const auto volume = cpmesh::io::read_label_volume("labels.nrrd");
 //   cpmesh::mesh::MeshOptions options;              // defaults for medical segmentations
 //   const auto result = cpmesh::mesh::mesh_volume(ctx, volume, options,
 //       [](const std::string& stage) { std::puts(stage.c_str()); });
@@ -33,6 +33,7 @@ struct MeshOptions {
   particles::PopulationOptions population;
   QualityOptions volume;
   bool only_surfaces = false;  // skip the volume mesh
+  int repair_rounds = 4;       // rounds of curve points added where wrong faces are left (extract.h, "Repair")
 };
 
 struct InterfaceReport {
@@ -54,6 +55,8 @@ struct MeshReport {
   int iterations = 0;
   bool settled = false, steady = false;
   size_t delaunay_tets = 0;
+  size_t wrong_faces_before_repair = 0, relabelled_tets = 0, wrong_faces = 0;  // extract.h "Repair"
+  size_t added_curve_points = 0;
   TriangleStats surface;  // all interface triangles
   std::vector<InterfaceReport> interfaces;
   std::vector<MaterialReport> materials;

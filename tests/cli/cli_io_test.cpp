@@ -118,3 +118,26 @@ TEST_CASE("particles on a small sphere: settled population written, parameters i
   CHECK(contains(bad.output, "missing.nrrd"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report written; errors clear") {
+  const auto dir = scratch();
+  const auto vol = dir / "sphere.nrrd";
+  REQUIRE(run_tool("cpmesh-synth sphere --size 32 --radius 10 -o " + vol.string()).exit_code == 0);
+  const auto out = dir / "mesh";
+  const auto r = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply -o " + out.string());
+  REQUIRE(r.exit_code == 0);
+  CHECK(contains(r.output, "volume mesh:"));
+  for (const char* f : {"interfaces.ply", "interface_0_1.ply", "volume.vtu", "particles.vtp", "report.json"})
+    CHECK(fs::exists(out / f));
+  std::ifstream json(out / "report.json");
+  const auto j = nlohmann::json::parse(json);
+  CHECK(j["interfaces"].size() == 1);
+  CHECK(j["interfaces"][0]["manifold"].get<bool>());
+  CHECK(j["materials"][0]["closed"].get<bool>());
+  CHECK(j["surface"]["mean_radius_ratio"].get<double>() > 0.85);
+  CHECK(j["volume_mesh"]["tets"].get<int>() > 0);
+  const auto bad = run_tool("cpmesh mesh " + vol.string() + " --format xyz -o " + out.string());
+  CHECK(bad.exit_code != 0);
+  CHECK(contains(bad.output, "xyz"));
+  fs::remove_all(dir);
+}

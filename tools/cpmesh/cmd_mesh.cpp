@@ -100,6 +100,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["population_settled"] = rep.settled;
             j["population_steady"] = rep.steady;
             j["surface"] = triangle_json(rep.surface);
+            j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
+                           {"wrong_faces_after", rep.wrong_faces},
+                           {"added_curve_points", rep.added_curve_points}};
             j["interfaces"] = nlohmann::json::array();
             for (const auto& ir : rep.interfaces) {
               auto e = triangle_json(ir.quality);
@@ -134,6 +137,8 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               std::printf("  %4u/%-5u %10zu %8.3f %8.3f %7.1f%% %9s\n", ir.labels[0], ir.labels[1], ir.quality.triangles,
                           ir.quality.mean_radius_ratio, ir.quality.min_radius_ratio, 100 * ir.quality.share_below_half,
                           ir.check.manifold() ? "yes" : "no");
+            std::printf("  repair: %zu wrong faces, %zu tets relabelled, %zu curve points added, %zu left\n",
+                        rep.wrong_faces_before_repair, rep.relabelled_tets, rep.added_curve_points, rep.wrong_faces);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials closed\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
                         rep.interfaces.size(), rep.materials_closed, rep.materials.size());

@@ -1,0 +1,141 @@
+// The whole pipeline (mesh::mesh_volume, issue 8) on the analytic volumes: Delaunay, restricted-Delaunay labels,
+// repair, interface extraction, the quality report and the constrained volume mesh.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "fields_volumes.h"
+#include "gpu_fixture.h"
+#include "io/synth_volumes.h"
+#include "mesh/pipeline.h"
+#include "mesh/quality.h"
+
+using namespace cpmesh;
+using cpmesh::test::GpuFixture;
+
+namespace {
+
+io::LabelVolume synth(io::SynthShape shape, int size, double radius, glm::dvec3* centre = nullptr) {
+  io::SynthOptions o;
+  o.shape = shape;
+  o.size = size;
+  o.radius = radius;
+  auto s = io::make_synth_volume(o);
+  if (centre) *centre = glm::dvec3(s.centre[0], s.centre[1], s.centre[2]);
+  return s.volume;
+}
+
+glm::dvec3 vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+
+// Distance from p to triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
+double point_triangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return glm::length(p - a);
+  const glm::dvec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return glm::length(p - b);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return glm::length(p - (a + d1 / (d1 - d3) * ab));
+  const glm::dvec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return glm::length(p - c);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return glm::length(p - (a + d2 / (d2 - d6) * ac));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return glm::length(p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)));
+  const double denom = 1 / (va + vb + vc);
+  return glm::length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
+}
+
+}  // namespace
+
+TEST_CASE("radius ratio, dihedral angles and radius-edge ratio on known shapes") {
+  const glm::dvec3 a(0, 0, 0), b(1, 0, 0), c(0.5, std::sqrt(3.0) / 2, 0);
+  CHECK(mesh::radius_ratio(a, b, c) == doctest::Approx(1.0));
+  CHECK(mesh::radius_ratio(a, b, glm::dvec3(0.5, 0.01, 0)) < 0.05);
+  const glm::dvec3 d(0.5, std::sqrt(3.0) / 6, std::sqrt(2.0 / 3.0));  // regular tet
+  for (double angle : mesh::dihedral_angles(a, b, c, d)) CHECK(angle * 180 / M_PI == doctest::Approx(70.5288).epsilon(1e-4));
+  CHECK(mesh::radius_edge_ratio(a, b, c, d) == doctest::Approx(std::sqrt(6.0) / 4).epsilon(1e-9));
+  // A closed tetrahedron surface has no odd edge; one face less leaves three.
+  const std::vector<std::array<uint32_t, 3>> tet = {{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {0, 2, 3}};
+  CHECK(mesh::odd_edges(tet) == 0);
+  CHECK(mesh::odd_edges({tet[0], tet[1], tet[2]}) == 3);
+  const auto check = mesh::check_surface({tet[0], tet[1], tet[2]}, {0, 0, 0, 0});
+  CHECK(check.boundary_edges == 3);
+  CHECK(check.open_edges == 3);
+  CHECK(mesh::check_surface({tet[0], tet[1], tet[2]}, {1, 1, 1, 1}).open_edges == 0);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analytic sphere both ways, closed, quality tets") {
+  glm::dvec3 centre;
+  const double R = 12;
+  const auto volume = synth(io::SynthShape::sphere, 36, R, &centre);
+  mesh::MeshOptions options;
+  options.fields.sizing.h_max = 2.0;
+  const auto r = mesh::mesh_volume(ctx, volume, options);
+  const auto& S = r.surfaces;
+  REQUIRE(S.triangles.size() > 200);
+  // Mesh -> sphere: vertices and triangle centroids.
+  double to_sphere = 0;
+  for (const auto& t : S.triangles) {
+    const glm::dvec3 p[3] = {vec(S.vertices[t[0]]), vec(S.vertices[t[1]]), vec(S.vertices[t[2]])};
+    for (const auto& q : {p[0], p[1], p[2], (p[0] + p[1] + p[2]) / 3.0}) to_sphere = std::max(to_sphere, std::fabs(glm::length(q - centre) - R));
+  }
+  // Sphere -> mesh: random points of the sphere.
+  std::mt19937 rng(2);
+  std::normal_distribution<double> n01;
+  double to_mesh = 0;
+  for (int k = 0; k < 400; ++k) {
+    const glm::dvec3 q = centre + R * glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    double best = 1e30;
+    for (const auto& t : S.triangles) best = std::min(best, point_triangle(q, vec(S.vertices[t[0]]), vec(S.vertices[t[1]]), vec(S.vertices[t[2]])));
+    to_mesh = std::max(to_mesh, best);
+  }
+  const auto& rep = r.report;
+  MESSAGE("Hausdorff: mesh to sphere " << to_sphere << ", sphere to mesh " << to_mesh << " voxel; " << S.triangles.size()
+                                       << " triangles, radius ratio mean " << rep.surface.mean_radius_ratio << " min "
+                                       << rep.surface.min_radius_ratio << "; volume mesh " << rep.volume.tets
+                                       << " tets, dihedral " << rep.volume.min_dihedral_deg << ".."
+                                       << rep.volume.max_dihedral_deg);
+  CHECK(to_sphere < 0.5);
+  CHECK(to_mesh < 0.5);
+  REQUIRE(rep.interfaces.size() == 1);
+  CHECK(rep.interfaces[0].check.manifold());
+  CHECK(rep.interfaces[0].check.boundary_edges == 0);
+  CHECK(rep.materials_closed == 2);
+  CHECK(rep.surface.mean_radius_ratio > 0.85);
+  CHECK(rep.volume_error.empty());
+  CHECK(rep.volume.tets > 0);
+  CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1});
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, interfaces share curve vertices") {
+  const auto volume = synth(io::SynthShape::wedge_ball, 40, 0);
+  const auto r = mesh::mesh_volume(ctx, volume);
+  const auto& rep = r.report;
+  MESSAGE(rep.particles << " particles, " << rep.surface.triangles << " triangles, radius ratio mean "
+                        << rep.surface.mean_radius_ratio << " min " << rep.surface.min_radius_ratio << "; wrong faces "
+                        << rep.wrong_faces_before_repair << " -> " << rep.wrong_faces << " (" << rep.relabelled_tets
+                        << " tets relabelled, " << rep.added_curve_points << " curve points added); "
+                        << rep.interfaces_manifold << " of " << rep.interfaces.size() << " interfaces manifold; volume "
+                        << rep.volume.tets << " tets, dihedral " << rep.volume.min_dihedral_deg << ".."
+                        << rep.volume.max_dihedral_deg);
+  CHECK(rep.interfaces.size() == 9);
+  CHECK(rep.materials_closed == rep.materials.size());
+  for (const auto& ir : rep.interfaces) CHECK(ir.check.nonmanifold_edges == 0);
+  CHECK(rep.wrong_faces < rep.wrong_faces_before_repair);
+  CHECK(rep.surface.mean_radius_ratio > 0.8);
+  // Conforming: triangles of different interfaces meet at curve or quadruple-point vertices.
+  std::vector<std::set<std::array<uint16_t, 2>>> pairs_at(r.surfaces.vertices.size());
+  for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)
+    for (uint32_t v : r.surfaces.triangles[i]) pairs_at[v].insert(r.surfaces.triangle_pair[i]);
+  size_t shared = 0;
+  for (size_t v = 0; v < pairs_at.size(); ++v)
+    if (pairs_at[v].size() >= 2 && r.surfaces.vertex_feature[v] != uint8_t(io::VertexFeature::interface)) ++shared;
+  CHECK(shared > 50);
+  CHECK(rep.volume_error.empty());
+  CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
+}
