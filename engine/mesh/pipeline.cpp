@@ -124,6 +124,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const M
   std::vector<uint8_t> on_curve(kind.size());
   for (size_t v = 0; v < kind.size(); ++v) on_curve[v] = kind[v] != uint8_t(fields::FeatureKind::interface);
   rep.surface = triangle_stats(I.vertices, I.triangles);
+  {
+    std::vector<std::array<uint32_t, 3>> at_junction, away;
+    for (const auto& tri : I.triangles)
+      (on_curve[tri[0]] || on_curve[tri[1]] || on_curve[tri[2]] ? at_junction : away).push_back(tri);
+    rep.junction_triangles = triangle_stats(I.vertices, at_junction);
+    rep.other_triangles = triangle_stats(I.vertices, away);
+  }
   std::map<std::array<uint16_t, 2>, std::vector<std::array<uint32_t, 3>>> by_pair;
   for (size_t i = 0; i < I.triangles.size(); ++i) by_pair[I.pair[i]].push_back(I.triangles[i]);
   for (const auto& [pair, tris] : by_pair) {

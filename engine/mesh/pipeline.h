@@ -58,6 +58,7 @@ struct MeshReport {
   size_t wrong_faces_before_repair = 0, relabelled_tets = 0, wrong_faces = 0;  // extract.h "Repair"
   size_t added_curve_points = 0;
   TriangleStats surface;  // all interface triangles
+  TriangleStats junction_triangles, other_triangles;  // with a triple-curve or quadruple-point vertex; without
   std::vector<InterfaceReport> interfaces;
   std::vector<MaterialReport> materials;
   TetStats volume;           // the whole volume mesh

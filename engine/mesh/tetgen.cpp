@@ -71,6 +71,11 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
 Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                          const std::vector<int>& markers, const std::vector<Region>& regions,
                          const QualityOptions& options) {
+  // TetGen's refinement is only known to end for looser bounds (1.1/20 ran without end on a small sphere).
+  if (!(options.max_radius_edge >= 1.2) || !(options.min_dihedral <= 18.0) || options.min_dihedral < 0)
+    throw std::invalid_argument("volume mesh: max radius-edge ratio must be >= 1.2 and min dihedral angle in [0, 18] "
+                                "degrees, got " + std::to_string(options.max_radius_edge) + " and " +
+                                std::to_string(options.min_dihedral));
   tetgenio in, out;
   set_points(in, points);
   in.numberoffacets = int(triangles.size());

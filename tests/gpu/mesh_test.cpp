@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
 #include <set>
 
@@ -113,7 +114,11 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, interfaces share curve vertices") {
-  const auto volume = synth(io::SynthShape::wedge_ball, 40, 0);
+  io::SynthOptions so;
+  so.shape = io::SynthShape::wedge_ball;
+  so.size = 40;
+  const auto wb = io::make_synth_volume(so);
+  const auto& volume = wb.volume;
   const auto r = mesh::mesh_volume(ctx, volume);
   const auto& rep = r.report;
   MESSAGE(rep.particles << " particles, " << rep.surface.triangles << " triangles, radius ratio mean "
@@ -136,6 +141,35 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   for (size_t v = 0; v < pairs_at.size(); ++v)
     if (pairs_at[v].size() >= 2 && r.surfaces.vertex_feature[v] != uint8_t(io::VertexFeature::interface)) ++shared;
   CHECK(shared > 50);
+  // Mesh edges on triple curves (both ends curve or quadruple-point vertices, in triangles of three material pairs or
+  // more): distance of their midpoints to the analytic curves.
+  std::map<std::pair<uint32_t, uint32_t>, std::set<std::array<uint16_t, 2>>> edge_pairs;
+  for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = r.surfaces.triangles[i][size_t(e)], b = r.surfaces.triangles[i][size_t((e + 1) % 3)];
+      edge_pairs[{std::min(a, b), std::max(a, b)}].insert(r.surfaces.triangle_pair[i]);
+    }
+  double worst = 0, sum = 0;
+  size_t n = 0;
+  for (const auto& [edge, pairs] : edge_pairs) {
+    if (pairs.size() < 3) continue;
+    if (r.surfaces.vertex_feature[edge.first] == uint8_t(io::VertexFeature::interface) ||
+        r.surfaces.vertex_feature[edge.second] == uint8_t(io::VertexFeature::interface))
+      continue;
+    std::set<uint16_t> mats;
+    for (const auto& p : pairs) mats.insert(p.begin(), p.end());
+    if (mats.size() != 3) continue;
+    const std::array<uint16_t, 3> m3 = {*mats.begin(), *std::next(mats.begin()), *std::next(mats.begin(), 2)};
+    const glm::dvec3 mid = 0.5 * (vec(r.surfaces.vertices[edge.first]) + vec(r.surfaces.vertices[edge.second]));
+    const double d = test::distance_to_curve(wb.junctions, m3, mid);  // both physical
+    worst = std::max(worst, d);
+    sum += d;
+    ++n;
+  }
+  MESSAGE(n << " triple-curve edges: midpoint distance to the analytic curves mean " << sum / double(std::max<size_t>(n, 1))
+            << ", max " << worst << " voxel");
+  CHECK(n > 30);
+  CHECK(sum / double(std::max<size_t>(n, 1)) < 0.5);
   CHECK(rep.volume_error.empty());
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
 }

@@ -55,8 +55,14 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--tighten", m.fields.indicator.tighten_radius, "Tightening radius, voxels (0: off)")->capture_default_str();
   sub->add_option("--theta", m.advection.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
   sub->add_option("--seed", m.population.seed, "Random seed (same seed, same mesh)")->capture_default_str();
-  sub->add_option("--max-radius-edge", m.volume.max_radius_edge, "Volume mesh: largest tet radius-edge ratio")->capture_default_str();
-  sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle, degrees")->capture_default_str();
+  // TetGen's refinement is only known to end for radius-edge bounds above about 1.1 and dihedral bounds below about
+  // 18 degrees (a bound of 1.1/20 ran without end on a 36^3 sphere), so tighter requests are refused.
+  sub->add_option("--max-radius-edge", m.volume.max_radius_edge, "Volume mesh: largest tet radius-edge ratio (>= 1.2)")
+      ->check(CLI::Range(1.2, 1e6))
+      ->capture_default_str();
+  sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle TetGen aims at, degrees (<= 18)")
+      ->check(CLI::Range(0.0, 18.0))
+      ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
   return {sub, [o, &g] {
@@ -100,6 +106,8 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["population_settled"] = rep.settled;
             j["population_steady"] = rep.steady;
             j["surface"] = triangle_json(rep.surface);
+            j["surface_at_junctions"] = triangle_json(rep.junction_triangles);
+            j["surface_away_from_junctions"] = triangle_json(rep.other_triangles);
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
                            {"added_curve_points", rep.added_curve_points}};
@@ -137,6 +145,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               std::printf("  %4u/%-5u %10zu %8.3f %8.3f %7.1f%% %9s\n", ir.labels[0], ir.labels[1], ir.quality.triangles,
                           ir.quality.mean_radius_ratio, ir.quality.min_radius_ratio, 100 * ir.quality.share_below_half,
                           ir.check.manifold() ? "yes" : "no");
+            std::printf("  triangles at junctions: %zu, mean radius ratio %.3f; elsewhere: %zu, %.3f\n",
+                        rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
+                        rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
             std::printf("  repair: %zu wrong faces, %zu tets relabelled, %zu curve points added, %zu left\n",
                         rep.wrong_faces_before_repair, rep.relabelled_tets, rep.added_curve_points, rep.wrong_faces);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials closed\n",
