@@ -55,9 +55,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--density", m.fields.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
   sub->add_option("--tighten", m.fields.indicator.tighten_radius, "Tightening radius, voxels (0: off)")->capture_default_str();
   sub->add_option("--theta", m.advection.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
-  sub->add_option("--seed", m.population.seed, "Random seed (same seed, same mesh)")->capture_default_str();
-  sub->add_option("--round-iterations", m.population.iterations_per_round, "Advection iterations per add/delete round at most")
-      ->capture_default_str();
+  add_population_options(sub, m.population);
   // TetGen's refinement is only known to end for radius-edge bounds above about 1.1 and dihedral bounds below about
   // 18 degrees (a bound of 1.1/20 ran without end on a 36^3 sphere), so tighter requests are refused.
   sub->add_option("--max-radius-edge", m.volume.max_radius_edge, "Volume mesh: largest tet radius-edge ratio (>= 1.2)")

@@ -18,6 +18,32 @@
 
 namespace cpmesh::cli {
 
+void add_population_options(CLI::App* sub, particles::PopulationOptions& p) {
+  sub->add_option("--seed-constant", p.random_seed_constant, "C: random seeds per grid point where h < 1 voxel, x 1/h (paper: 2)")->capture_default_str();
+  sub->add_option("--seed-below", p.random_seed_below, "Sizing (voxels) below which random seeds are added (paper: 1)")->capture_default_str();
+  sub->add_option("--seed-energy", p.seed_energy_factor, "A seed is kept if its energy is below this x ideal")->capture_default_str();
+  sub->add_option("--delete-factor", p.delete_factor, "Delete candidate: energy above this x ideal")->capture_default_str();
+  sub->add_option("--add-factor", p.add_factor, "Add candidate: energy below this x ideal")->capture_default_str();
+  sub->add_option("--readd-factor", p.readd_factor, "A delete candidate is re-inserted if its energy is below this x ideal (paper: 4)")->capture_default_str();
+  sub->add_option("--accept-factor", p.accept_factor, "A particle filling a hole is kept if its energy is below this x ideal")->capture_default_str();
+  sub->add_option("--relaxed-energy", p.relaxed_energy_ratio, "Mean energy / ideal of a relaxed population at the ideal density")->capture_default_str();
+  sub->add_option("--energy-tolerance", p.energy_tolerance, "Settled when each feature's mean energy is within this of the target")->capture_default_str();
+  sub->add_option("--significance", p.significance, "... and at most this share of particles is flagged")->capture_default_str();
+  sub->add_option("--steady-share", p.steady_share, "Steady when |added - deleted| is below this share two rounds running")->capture_default_str();
+  sub->add_option("--count-gain", p.count_gain, "Share of a feature's count error corrected per round")->capture_default_str();
+  sub->add_option("--max-rounds", p.max_rounds, "Add/delete rounds at most")->capture_default_str();
+  sub->add_option("--round-iterations", p.iterations_per_round, "Advection iterations per round at most")->capture_default_str();
+  sub->add_option("--min-round-iterations", p.min_iterations_per_round, "Advection iterations per round at least")->capture_default_str();
+  sub->add_option("--min-feature-particles", p.min_feature_particles, "Features with fewer particles get no count correction")->capture_default_str();
+  sub->add_option("--add-tries", p.add_tries, "Random directions tried per add candidate")->capture_default_str();
+  sub->add_option("--seed", p.seed, "Random seed (same seed, same result)")->capture_default_str();
+  for (const char* name : {"--seed-constant", "--seed-below", "--seed-energy", "--delete-factor", "--add-factor",
+                           "--readd-factor", "--accept-factor", "--relaxed-energy", "--energy-tolerance",
+                           "--significance", "--steady-share", "--count-gain"})
+    sub->get_option(name)->check(CLI::NonNegativeNumber);
+  for (const char* name : {"--max-rounds", "--round-iterations", "--add-tries"}) sub->get_option(name)->check(CLI::PositiveNumber);
+}
+
 Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   struct Options {
     VolumeInput input;
@@ -41,22 +67,7 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   auto& a = o->advection;
   sub->add_option("--theta", a.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
   sub->add_option("--delta", a.delta, "Stop rule: relative energy decrease per iteration (paper: 0.0015)")->capture_default_str();
-  auto& p = o->population;
-  sub->add_option("--seed-constant", p.random_seed_constant, "C: random seeds per grid point where h < 1 voxel, x 1/h (paper: 2)")->capture_default_str();
-  sub->add_option("--seed-below", p.random_seed_below, "Sizing (voxels) below which random seeds are added (paper: 1)")->capture_default_str();
-  sub->add_option("--seed-energy", p.seed_energy_factor, "A seed is kept if its energy is below this x ideal")->capture_default_str();
-  sub->add_option("--delete-factor", p.delete_factor, "Delete candidate: energy above this x ideal")->capture_default_str();
-  sub->add_option("--add-factor", p.add_factor, "Add candidate: energy below this x ideal")->capture_default_str();
-  sub->add_option("--readd-factor", p.readd_factor, "A delete candidate is re-inserted if its energy is below this x ideal (paper: 4)")->capture_default_str();
-  sub->add_option("--accept-factor", p.accept_factor, "A particle filling a hole is kept if its energy is below this x ideal")->capture_default_str();
-  sub->add_option("--relaxed-energy", p.relaxed_energy_ratio, "Mean energy / ideal of a relaxed population at the ideal density")->capture_default_str();
-  sub->add_option("--energy-tolerance", p.energy_tolerance, "Settled when each feature's mean energy is within this of the target")->capture_default_str();
-  sub->add_option("--significance", p.significance, "... and at most this share of particles is flagged")->capture_default_str();
-  sub->add_option("--steady-share", p.steady_share, "Steady when |added - deleted| is below this share two rounds running")->capture_default_str();
-  sub->add_option("--count-gain", p.count_gain, "Share of a feature's count error corrected per round")->capture_default_str();
-  sub->add_option("--max-rounds", p.max_rounds, "Add/delete rounds at most")->capture_default_str();
-  sub->add_option("--round-iterations", p.iterations_per_round, "Advection iterations per round at most")->capture_default_str();
-  sub->add_option("--seed", p.seed, "Random seed (same seed, same particles)")->capture_default_str();
+  add_population_options(sub, o->population);
   sub->add_flag("--grid-seeding", o->grid_seeding, "Seed with grid points only (BioMesh3D's seeding, for comparison)");
   return {sub, [o, &g] {
             Progress progress(5);

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "gpu/context.h"
+#include "particles/population.h"
 
 namespace cpmesh::cli {
 
@@ -28,6 +29,9 @@ Command add_info_command(CLI::App& app, const GlobalOptions& g);
 Command add_fields_command(CLI::App& app, const GlobalOptions& g);
 Command add_particles_command(CLI::App& app, const GlobalOptions& g);
 Command add_mesh_command(CLI::App& app, const GlobalOptions& g);
+
+// The population parameters (seeding, add/delete), shared by `particles` and `mesh`.
+void add_population_options(CLI::App* sub, particles::PopulationOptions& p);
 
 // Prints the per-kernel profile when --profile was given.
 void print_profile(const gpu::Context& ctx, const GlobalOptions& g);
