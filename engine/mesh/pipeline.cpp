@@ -13,8 +13,34 @@
 namespace cpmesh::mesh {
 
 
-MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const MeshOptions& options,
+io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups) {
+  io::LabelVolume out = volume;
+  if (groups.empty()) return out;
+  std::vector<uint8_t> present(65536, 0);
+  for (uint16_t l : volume.labels) present[l] = 1;
+  std::vector<uint16_t> map(65536, 0);
+  for (const auto& g : groups)
+    for (uint16_t l : g) {
+      if (!present[l]) {
+        std::string have;
+        for (size_t v = 0; v < present.size(); ++v) {
+          if (!present[v]) continue;
+          if (!have.empty()) have.push_back(',');
+          have.append(std::to_string(v));
+        }
+        throw std::invalid_argument(volume.source + ": materials: label " + std::to_string(l) +
+                                    " is not in the volume (its labels: " + have + ")");
+      }
+      map[l] = g.front();
+    }
+  for (auto& l : out.labels) l = map[l];
+  return out;
+}
+
+MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const MeshOptions& options,
                        const StageCallback& on_stage) {
+  const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
+  const io::LabelVolume& volume = options.materials.empty() ? input : selected;
   using clock = std::chrono::steady_clock;
   MeshResult result;
   MeshReport& rep = result.report;

@@ -34,7 +34,13 @@ struct MeshOptions {
   QualityOptions volume;
   bool only_surfaces = false;  // skip the volume mesh
   int repair_rounds = 4;       // rounds of curve points added where wrong faces are left (extract.h, "Repair")
+  // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
+  // no group become 0, the background. A label not in the volume is an error.
+  std::vector<std::vector<uint16_t>> materials;
 };
+
+// The volume with options.materials applied (a copy); throws std::invalid_argument naming a missing label.
+io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups);
 
 struct InterfaceReport {
   std::array<uint16_t, 2> labels{};

@@ -139,5 +139,12 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   const auto bad = run_tool("cpmesh mesh " + vol.string() + " --format xyz -o " + out.string());
   CHECK(bad.exit_code != 0);
   CHECK(contains(bad.output, "xyz"));
+  const auto missing = run_tool("cpmesh mesh " + vol.string() + " --materials 1+9 -o " + (dir / "m2").string());
+  CHECK(missing.exit_code == 1);
+  CHECK(contains(missing.output, "label 9"));
+  CHECK(!fs::exists(dir / "m2" / "report.json"));
+  const auto garbled = run_tool("cpmesh mesh " + vol.string() + " --materials 1+x -o " + (dir / "m2").string());
+  CHECK(garbled.exit_code == 1);
+  CHECK(contains(garbled.output, "--materials"));
   fs::remove_all(dir);
 }

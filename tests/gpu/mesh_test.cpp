@@ -173,3 +173,24 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(rep.volume_error.empty());
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
 }
+
+TEST_CASE("materials: keep, merge and drop labels; a missing label is named") {
+  io::LabelVolume v;
+  v.dims = {4, 1, 1};
+  v.labels = {0, 1, 2, 3};
+  v.source = "v.nrrd";
+  const auto merged = mesh::select_materials(v, {{1, 2}});
+  CHECK(merged.labels == std::vector<uint16_t>{0, 1, 1, 0});
+  const auto kept = mesh::select_materials(v, {{3}, {2}});
+  CHECK(kept.labels == std::vector<uint16_t>{0, 0, 2, 3});
+  CHECK(mesh::select_materials(v, {}).labels == v.labels);
+  try {
+    mesh::select_materials(v, {{1, 7}});
+    FAIL("label 7 accepted");
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    CHECK(what.find("v.nrrd") != std::string::npos);
+    CHECK(what.find("label 7") != std::string::npos);
+    CHECK(what.find("0,1,2,3") != std::string::npos);
+  }
+}

@@ -1,6 +1,7 @@
 // `cpmesh mesh`: the whole pipeline (engine/mesh/pipeline.h): labels in; interface meshes, a tet mesh of every
 // material, the particles and report.json out; a progress line per stage and a summary table.
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <set>
@@ -35,6 +36,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
     std::string format = "vtp";
     std::string volume_format = "vtu";
     mesh::MeshOptions mesh;
+    std::vector<std::string> materials;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand(
@@ -66,8 +68,27 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
+  sub->add_option("--materials", o->materials,
+                  "Labels to mesh, comma-separated; A+B merges B into A; labels not listed become 0 (background). "
+                  "Example: --materials 1,2+3,4")
+      ->delimiter(',');
   return {sub, [o, &g] {
             const bool tty = isatty(STDERR_FILENO) != 0;
+            for (const std::string& item : o->materials) {
+              std::vector<uint16_t> group;
+              size_t start = 0;
+              while (start <= item.size()) {
+                const size_t plus = std::min(item.find('+', start), item.size());
+                const std::string num = item.substr(start, plus - start);
+                char* end = nullptr;
+                const unsigned long v = std::strtoul(num.c_str(), &end, 10);
+                if (num.empty() || *end != '\0' || v > 65535)
+                  throw std::invalid_argument("--materials: '" + item + "': expected labels 0..65535 joined by '+'");
+                group.push_back(uint16_t(v));
+                start = plus + 1;
+              }
+              o->mesh.materials.push_back(group);
+            }
             const io::LabelVolume volume = read_volume_input(o->input);
             gpu::Context ctx(g.context());
             int stage = 0;
