@@ -124,8 +124,10 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   const auto vol = dir / "sphere.nrrd";
   REQUIRE(run_tool("cpmesh-synth sphere --size 32 --radius 10 -o " + vol.string()).exit_code == 0);
   const auto out = dir / "mesh";
-  const auto r = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply -o " + out.string());
+  const auto r = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply -o " + out.string() +
+                          " --preview " + (dir / "preview.png").string());
   REQUIRE(r.exit_code == 0);
+  CHECK(fs::file_size(dir / "preview.png") > 1000);
   CHECK(contains(r.output, "volume mesh:"));
   for (const char* f : {"interfaces.ply", "interface_0_1.ply", "volume.vtu", "particles.vtp", "report.json"})
     CHECK(fs::exists(out / f));

@@ -12,6 +12,7 @@
 #include "io/synth_volumes.h"
 #include "mesh/pipeline.h"
 #include "mesh/quality.h"
+#include "render/preview.h"
 
 using namespace cpmesh;
 using cpmesh::test::GpuFixture;
@@ -172,6 +173,26 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(sum / double(std::max<size_t>(n, 1)) < 0.5);
   CHECK(rep.volume_error.empty());
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
+
+  // The preview shows the ball in both halves, in several pair colours.
+  const auto scene = render::preview_scene(r.surfaces, 400, 200);
+  const auto image = render::rasterize(ctx, scene);
+  size_t covered[2] = {0, 0};
+  std::set<uint32_t> colours;
+  for (uint32_t y = 0; y < image.height; ++y)
+    for (uint32_t x = 0; x < image.width; ++x) {
+      const uint32_t p = image.rgba[size_t(y) * image.width + x];
+      if (p == scene.background) continue;
+      ++covered[x >= image.width / 2];
+      colours.insert(p);
+    }
+  const double half = 200.0 * 200.0;
+  MESSAGE("preview: " << covered[0] / half << " and " << covered[1] / half << " of each half covered, "
+                      << colours.size() << " colours");
+  CHECK(covered[0] / half > 0.3);  // a ball filling 92% of the view's height covers about 0.6 of it
+  CHECK(covered[0] / half < 0.8);
+  CHECK(covered[1] / half > 0.2);
+  CHECK(colours.size() > 50);
 }
 
 TEST_CASE("materials: keep, merge and drop labels; a missing label is named") {

@@ -11,7 +11,9 @@
 #include "commands.h"
 #include "io/atomic_file.h"
 #include "io/mesh_writers.h"
+#include "io/png.h"
 #include "mesh/pipeline.h"
+#include "render/preview.h"
 #include "volume_input.h"
 
 namespace cpmesh::cli {
@@ -37,6 +39,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
     std::string volume_format = "vtu";
     mesh::MeshOptions mesh;
     std::vector<std::string> materials;
+    std::string preview;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand(
@@ -68,6 +71,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
+  sub->add_option("--preview", o->preview,
+                  "Also render the interfaces to this PNG (1200 x 600: an oblique view and the same view cut away at "
+                  "the centre, coloured by material pair), offscreen on the same device");
   sub->add_option("--materials", o->materials,
                   "Labels to mesh, comma-separated; A+B merges B into A; labels not listed become 0 (background). "
                   "Example: --materials 1,2+3,4")
@@ -116,6 +122,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               if (o->volume_format == "vtu") io::write_vtu(dir + "volume.vtu", r.volume);
               else if (o->volume_format == "mesh") io::write_medit(dir + "volume.mesh", r.volume);
               else io::write_tetgen(dir + "volume", r.volume);
+            }
+            if (!o->preview.empty()) {
+              const auto image = render::rasterize(ctx, render::preview_scene(r.surfaces, 1200, 600));
+              io::write_png(o->preview, image.width, image.height, image.rgba);
             }
             nlohmann::json j;
             j["volume"] = volume.source;
