@@ -1,5 +1,8 @@
 // cpmesh: the command-line tool. Each subcommand (commands.h) is a thin layer over the engine library.
 #include <iostream>
+#include <memory>
+
+#include <tbb/global_control.h>
 #include <vector>
 
 #include "commands.h"
@@ -19,6 +22,8 @@ int main(int argc, char** argv) {
                  "Vulkan device: an index or a part of a name from `cpmesh devices` (default: CPMESH_DEVICE, else "
                  "discrete > integrated > virtual > CPU)");
   app.add_flag("--profile", g.profile, "Print GPU time per kernel (timestamp queries) when done");
+  unsigned threads = 0;
+  app.add_option("--threads", threads, "CPU threads for the host stages (0: every core)")->capture_default_str();
   app.add_flag("--validation", g.validation,
                "Enable the Vulkan validation layers (also CPMESH_VALIDATION=1); slow, for debugging");
 
@@ -36,6 +41,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  std::unique_ptr<tbb::global_control> thread_limit;
+  if (threads > 0)
+    thread_limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
   try {
     for (const auto& c : commands)
       if (c.sub->parsed()) return c.run();
