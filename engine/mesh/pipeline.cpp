@@ -74,7 +74,6 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   rep.settled = relaxed.settled;
   rep.steady = relaxed.steady;
 
-  begin("tetrahedralization");
   std::vector<glm::dvec3> points;
   std::vector<uint8_t> kind;
   std::vector<uint64_t> vertex_materials;
@@ -90,11 +89,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   };
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
-  stage_done("tetrahedralization");
 
   // Delaunay, labels, repair; where wrong faces are left (a triangle spanning a triple curve that is sampled too
   // sparsely there), add the curve's closest point to the wrong face's centroid and start again.
-  begin("extraction");
+  begin("delaunay and extraction");
   Tets T;
   Adjacency adj;
   std::vector<uint16_t> material, hull;
@@ -144,7 +142,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   }
   rep.delaunay_tets = T.tets.size();
   const InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
-  stage_done("extraction");
+  stage_done("delaunay and extraction");
 
   begin("quality");
   std::vector<uint8_t> on_curve(kind.size());

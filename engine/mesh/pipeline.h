@@ -10,9 +10,9 @@
 //   cpmesh::io::write_vtp("interfaces.vtp", result.surfaces);
 //   cpmesh::io::write_vtu("volume.vtu", result.volume);
 //
-// Stages: fields (indicator fields, embedding, sizing) -> seeding -> advection with add/delete rounds -> Delaunay
-// tetrahedralization of the particles (TetGen) -> tet labelling and interface extraction -> quality report ->
-// constrained quality tet mesh of every material bounded by the interface triangles (TetGen -pqAY).
+// Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
+// "advection" (with add/delete rounds) -> "delaunay and extraction" (TetGen Delaunay of the particles, tet labels,
+// repair, interface triangles) -> "quality" -> "volume mesh" (TetGen -pqAY bounded by the interface triangles).
 #include <array>
 #include <functional>
 #include <string>

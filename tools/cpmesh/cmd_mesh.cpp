@@ -99,7 +99,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             gpu::Context ctx(g.context());
             int stage = 0;
             const auto r = mesh::mesh_volume(ctx, volume, o->mesh, [&](const std::string& name) {
-              if (tty) std::fprintf(stderr, "[%d/%d] %s ...\n", ++stage, o->mesh.only_surfaces ? 6 : 7, name.c_str());
+              if (tty) std::fprintf(stderr, "[%d/%d] %s ...\n", ++stage, o->mesh.only_surfaces ? 5 : 6, name.c_str());
             });
             const auto& rep = r.report;
             std::filesystem::create_directories(o->out);
@@ -165,13 +165,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("%s: %zu particles (%d iterations, %zu rounds), %zu interface triangles, %zu tets\n",
                         volume.source.c_str(), rep.particles, rep.iterations, rep.rounds, rep.surface.triangles,
                         rep.volume.tets);
-            std::printf("  %-20s %9s\n", "stage", "seconds");
+            std::printf("  %-24s %9s\n", "stage", "seconds");
             double total = 0;
             for (const auto& [name, s] : rep.seconds) {
-              std::printf("  %-20s %9.2f\n", name.c_str(), s);
+              std::printf("  %-24s %9.2f\n", name.c_str(), s);
               total += s;
             }
-            std::printf("  %-20s %9.2f\n", "total", total);
+            std::printf("  %-24s %9.2f\n", "total", total);
             std::printf("  %-10s %10s %8s %8s %8s %9s\n", "interface", "triangles", "mean rr", "min rr", "<0.5", "manifold");
             for (const auto& ir : rep.interfaces)
               std::printf("  %4u/%-5u %10zu %8.3f %8.3f %7.1f%% %9s\n", ir.labels[0], ir.labels[1], ir.quality.triangles,

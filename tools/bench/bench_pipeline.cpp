@@ -1,0 +1,107 @@
+// Benchmark of the whole pipeline (issue 9; mesh::mesh_volume): for each volume, time per stage, peak host and
+// device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
+// a JSON line per volume. Volumes are synthetic (shape:size) or files.
+//   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
+//                         [--only-surfaces] [--max-size H]
+// Not yet: the CGAL Mesh_3 peer rows and the scaling table (issue 9).
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "io/read_volume.h"
+#include "io/synth_volumes.h"
+#include "mesh/pipeline.h"
+
+using namespace cpmesh;
+
+namespace {
+
+double peak_rss_mib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
+}
+
+io::LabelVolume load(const std::string& spec) {
+  const auto colon = spec.find(':');
+  if (colon != std::string::npos && spec.find('.') == std::string::npos) {
+    io::SynthOptions o;
+    o.shape = io::parse_synth_shape(spec.substr(0, colon));
+    o.size = std::stoi(spec.substr(colon + 1));
+    auto v = io::make_synth_volume(o).volume;
+    v.source = spec;
+    return v;
+  }
+  return io::read_label_volume(spec);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Benchmark of the whole pipeline: labels to interface and tet meshes"};
+  std::string device;
+  std::vector<std::string> volumes = {"wedge-ball:64", "wedge-ball:128"};
+  bool only_surfaces = false;
+  double max_size = 0;
+  app.add_option("--device", device, "Vulkan device index or name substring");
+  app.add_option("--volumes", volumes, "shape:size (sphere, wedge-ball, slabs, shells) or volume files")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_flag("--only-surfaces", only_surfaces, "Skip the volume mesh");
+  app.add_option("--max-size", max_size, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    gpu::Context ctx(gpu::ContextOptions{device, false, false});
+    const char* stages[] = {"fields", "seeding", "advection", "delaunay and extraction", "quality", "volume mesh"};
+    std::printf("Pipeline on %s\n%-16s", ctx.info().name.c_str(), "volume");
+    for (const char* s : {"fields", "seeding", "advection", "delaunay", "quality", "volume"}) std::printf(" %9s", s);
+    std::printf(" %8s %9s %9s %9s %6s %6s %8s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
+                "rr min", "dihedral", "host MiB", "dev MiB");
+    for (const std::string& spec : volumes) {
+      const auto volume = load(spec);
+      mesh::MeshOptions options;
+      options.only_surfaces = only_surfaces;
+      options.fields.sizing.h_max = max_size;
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto r = mesh::mesh_volume(ctx, volume, options);
+      const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const auto& rep = r.report;
+      std::printf("%-16s", spec.c_str());
+      nlohmann::json seconds = nlohmann::json::object();
+      for (const char* s : stages) {
+        double v = -1;
+        for (const auto& [name, sec] : rep.seconds)
+          if (name == s) v = sec;
+        if (v >= 0) {
+          std::printf(" %9.2f", v);
+          seconds[s] = v;
+        } else {
+          std::printf(" %9s", "-");
+        }
+      }
+      const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
+      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %8.0f %8.0f\n", total, rep.particles, rep.surface.triangles,
+                  rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
+                  rep.volume.min_dihedral_deg, peak_rss_mib(), dev_mib);
+      const nlohmann::json j = {
+          {"benchmark", "pipeline"}, {"device", ctx.info().name}, {"volume", spec}, {"seconds", seconds},
+          {"total_s", total}, {"particles", rep.particles}, {"iterations", rep.iterations}, {"rounds", rep.rounds},
+          {"triangles", rep.surface.triangles}, {"tets", rep.volume.tets},
+          {"mean_radius_ratio", rep.surface.mean_radius_ratio}, {"min_radius_ratio", rep.surface.min_radius_ratio},
+          {"share_below_0_5", rep.surface.share_below_half}, {"min_dihedral_deg", rep.volume.min_dihedral_deg},
+          {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
+          {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
+          {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib}};
+      std::cout << j.dump() << '\n';
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "cpmesh-bench-pipeline: error: " << e.what() << '\n';
+    return 1;
+  }
+}
