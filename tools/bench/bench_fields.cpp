@@ -20,16 +20,12 @@
 #include "ref/cp_lookup.h"
 #include "fields/volume_grid.h"
 #include "io/synth_volumes.h"
+#include "bench_util.h"
 
 using namespace cpmesh;
+using bench::peak_rss_mib;
 
 namespace {
-
-double peak_rss_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;
-}
 
 double seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -15,17 +15,13 @@
 
 #include "io/read_volume.h"
 #include "io/synth_volumes.h"
+#include "bench_util.h"
 #include "mesh/pipeline.h"
 
 using namespace cpmesh;
+using bench::peak_rss_mib;
 
 namespace {
-
-double peak_rss_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;
-}
 
 io::LabelVolume load(const std::string& spec) {
   const auto colon = spec.find(':');
