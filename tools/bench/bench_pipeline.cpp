@@ -3,10 +3,16 @@
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
 //                         [--only-surfaces] [--max-size H]
-// Not yet: the CGAL Mesh_3 peer rows and the scaling table (issue 9).
+// Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
+// directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral.
+// Not yet: the scaling table (issue 9).
 #include <sys/resource.h>
 
+#include <unistd.h>
+
 #include <chrono>
+#include <filesystem>
+#include <memory>
 #include <cstdio>
 #include <iostream>
 
@@ -50,6 +56,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--only-surfaces", only_surfaces, "Skip the volume mesh");
   app.add_option("--max-size", max_size, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
+  double peer_facet = 1.5;
+  bool no_peer = false;
+  app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
+  app.add_flag("--no-peer", no_peer, "Skip the CGAL peer even where it was built");
   CLI11_PARSE(app, argc, argv);
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, false});
@@ -94,6 +104,26 @@ int main(int argc, char** argv) {
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib}};
       std::cout << j.dump() << '\n';
+
+      // The peer, in a child process (its own memory, its own failures).
+      const auto peer = std::filesystem::read_symlink("/proc/self/exe").parent_path() / "cpmesh-peer-cgal";
+      if (no_peer || !std::filesystem::exists(peer)) continue;
+      const std::string command = peer.string() + " '" + spec + "' --facet-size " + std::to_string(peer_facet);
+      std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+      std::string line;
+      char buffer[4096];
+      while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) line += buffer;
+      try {
+        const auto pj = nlohmann::json::parse(line);
+        std::printf("%-16s", ("  CGAL " + std::to_string(peer_facet).substr(0, 4)).c_str());
+        for (int k = 0; k < 6; ++k) std::printf(" %9s", "");
+        std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f\n", pj["total_s"].get<double>(), "-",
+                    pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
+                    pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>());
+        std::cout << pj.dump() << '\n';
+      } catch (const std::exception& e) {
+        std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());
+      }
     }
     return 0;
   } catch (const std::exception& e) {

@@ -1,0 +1,113 @@
+// Peer for the pipeline benchmark (issue 9): CGAL Mesh_3 on a labeled image (Labeled_mesh_domain_3), the tool many
+// users mesh segmentations with today. Built only when CGAL is installed (libcgal-dev; tools/install-deps.sh does not
+// install it). Reads the same volumes as cpmesh-bench-pipeline (shape:size or a file, through cpmesh's readers),
+// meshes with facet size and cell size in voxels, and prints one JSON line: time, surface triangles (facets of the
+// complex), radius ratio mean/min, min dihedral of the cells, vertex count.
+//   cpmesh-peer-cgal VOLUME [--facet-size 1.5] [--facet-distance 0.5] [--cell-size 3]
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Image_3.h>
+#include <CGAL/ImageIO.h>
+#include <CGAL/Labeled_mesh_domain_3.h>
+#include <CGAL/Mesh_complex_3_in_triangulation_3.h>
+#include <CGAL/Mesh_criteria_3.h>
+#include <CGAL/Mesh_triangulation_3.h>
+#include <CGAL/make_mesh_3.h>
+
+#include "io/read_volume.h"
+#include "io/synth_volumes.h"
+#include "mesh/quality.h"
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Domain = CGAL::Labeled_mesh_domain_3<K>;
+using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_tag>::type;
+using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
+using Criteria = CGAL::Mesh_criteria_3<Tr>;
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "usage: cpmesh-peer-cgal VOLUME [--facet-size F] [--facet-distance D] [--cell-size C]\n";
+    return 2;
+  }
+  const std::string spec = argv[1];
+  double facet_size = 1.5, facet_distance = 0.5, cell_size = 3.0;
+  for (int a = 2; a + 1 < argc; a += 2) {
+    const std::string k = argv[a];
+    const double v = std::atof(argv[a + 1]);
+    if (k == "--facet-size") facet_size = v;
+    else if (k == "--facet-distance") facet_distance = v;
+    else if (k == "--cell-size") cell_size = v;
+    else {
+      std::cerr << "cpmesh-peer-cgal: unknown option " << k << '\n';
+      return 2;
+    }
+  }
+  try {
+    cpmesh::io::LabelVolume vol;
+    const auto colon = spec.find(':');
+    if (colon != std::string::npos && spec.find('.') == std::string::npos) {
+      cpmesh::io::SynthOptions o;
+      o.shape = cpmesh::io::parse_synth_shape(spec.substr(0, colon));
+      o.size = std::stoi(spec.substr(colon + 1));
+      vol = cpmesh::io::make_synth_volume(o).volume;
+    } else {
+      vol = cpmesh::io::read_label_volume(spec);
+    }
+    const double voxel = std::min({vol.spacing[0], vol.spacing[1], vol.spacing[2]});
+    _image* img = _createImage(size_t(vol.dims[0]), size_t(vol.dims[1]), size_t(vol.dims[2]), 1, vol.spacing[0],
+                               vol.spacing[1], vol.spacing[2], 2, WK_FIXED, SGN_UNSIGNED);
+    std::memcpy(img->data, vol.labels.data(), vol.labels.size() * sizeof(uint16_t));
+    CGAL::Image_3 image(img);
+    const auto t0 = std::chrono::steady_clock::now();
+    Domain domain = Domain::create_labeled_image_mesh_domain(image);
+    namespace p = CGAL::parameters;
+    Criteria criteria(p::facet_angle = 30, p::facet_size = facet_size * voxel,
+                      p::facet_distance = facet_distance * voxel, p::cell_radius_edge_ratio = 3,
+                      p::cell_size = cell_size * voxel);
+    C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    double rr_sum = 0, rr_min = 1;
+    size_t facets = 0;
+    for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
+      const auto& cell = f->first;
+      const int i = f->second;
+      glm::dvec3 v[3];
+      for (int k = 0, n = 0; k < 4; ++k) {
+        if (k == i) continue;
+        const auto& q = cell->vertex(k)->point();
+        v[n++] = glm::dvec3(CGAL::to_double(q.x()), CGAL::to_double(q.y()), CGAL::to_double(q.z()));
+      }
+      const double rr = cpmesh::mesh::radius_ratio(v[0], v[1], v[2]);
+      rr_sum += rr;
+      rr_min = std::min(rr_min, rr);
+      ++facets;
+    }
+    double dihedral_min = 180;
+    size_t cells = 0;
+    for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
+      glm::dvec3 v[4];
+      for (int k = 0; k < 4; ++k) {
+        const auto& q = c->vertex(k)->point();
+        v[k] = glm::dvec3(CGAL::to_double(q.x()), CGAL::to_double(q.y()), CGAL::to_double(q.z()));
+      }
+      for (double a : cpmesh::mesh::dihedral_angles(v[0], v[1], v[2], v[3])) dihedral_min = std::min(dihedral_min, a * 180 / M_PI);
+      ++cells;
+    }
+    std::printf("{\"benchmark\":\"pipeline_peer\",\"peer\":\"CGAL Mesh_3 %s\",\"volume\":\"%s\",\"facet_size_voxels\":%g,"
+                "\"total_s\":%.4f,\"triangles\":%zu,\"tets\":%zu,\"vertices\":%zu,\"mean_radius_ratio\":%.4f,"
+                "\"min_radius_ratio\":%.4f,\"min_dihedral_deg\":%.3f}\n",
+                CGAL_VERSION_STR, spec.c_str(), facet_size, seconds, facets, cells,
+                size_t(c3t3.triangulation().number_of_vertices()), facets ? rr_sum / double(facets) : 0.0, rr_min,
+                dihedral_min);
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "cpmesh-peer-cgal: error: " << e.what() << '\n';
+    return 1;
+  }
+}
