@@ -194,6 +194,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                 std::printf("  volume mesh not made: %s\n", rep.volume_error.c_str());
             }
             std::printf("  wrote %s\n", o->out.c_str());
+            print_profile(ctx, g);
             return 0;
           }};
 }

@@ -133,6 +133,7 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("  %-26s %9s\n", "stage", "seconds");
             for (const auto& [name, s] : progress.times()) std::printf("  %-26s %9.2f\n", name.c_str(), s);
             std::printf("  wrote %s\n", o->out.c_str());
+            print_profile(ctx, g);
             return 0;
           }};
 }
