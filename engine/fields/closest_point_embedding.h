@@ -14,6 +14,7 @@
 // the interface area and the number of features, never with volume x features.
 #include <array>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,16 @@ struct Feature {
   std::array<uint16_t, 4> materials = {0xffff, 0xffff, 0xffff, 0xffff};  // indices into IndicatorFields::labels, ascending
   uint32_t components = 1;  // separate pieces with this material set: curves (26-connected), points (located)
   int material_count() const { return 4 - int(kind == FeatureKind::interface) * 2 - int(kind == FeatureKind::triple_curve); }
+  // Bit m set for each material m of the feature: the particle system's interaction rule and the mesh repair compare
+  // these. Throws for a material index of 64 or more (the particle system supports at most 64 materials).
+  uint64_t material_mask() const {
+    uint64_t m = 0;
+    for (int a = 0; a < material_count(); ++a) {
+      if (materials[size_t(a)] >= 64) throw std::runtime_error("the particle system supports at most 64 materials");
+      m |= uint64_t(1) << materials[size_t(a)];
+    }
+    return m;
+  }
 };
 
 struct EmbeddingOptions {

@@ -80,11 +80,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   std::vector<float> vertex_h;
   auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
     const auto& feat = F.embedding.features[f];
-    uint64_t mask = 0;
-    for (int a = 0; a < feat.material_count(); ++a) mask |= uint64_t(1) << (feat.materials[size_t(a)] & 63);
     points.push_back(p);
     kind.push_back(uint8_t(feat.kind));
-    vertex_materials.push_back(mask);
+    vertex_materials.push_back(feat.material_mask());
     vertex_h.push_back(h);
   };
   for (size_t i = 0; i < P.particles.size(); ++i)

@@ -10,15 +10,7 @@ namespace {
 
 std::vector<uint64_t> feature_masks(const fields::ClosestPointEmbedding& E) {
   std::vector<uint64_t> masks;
-  for (const auto& f : E.features) {
-    uint64_t m = 0;
-    for (int a = 0; a < f.material_count(); ++a) {
-      if (f.materials[size_t(a)] >= 64)
-        throw std::runtime_error("the particle system supports at most 64 materials");
-      m |= uint64_t(1) << f.materials[size_t(a)];
-    }
-    masks.push_back(m);
-  }
+  for (const auto& f : E.features) masks.push_back(f.material_mask());
   return masks;
 }
 

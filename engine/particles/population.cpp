@@ -13,12 +13,6 @@ namespace {
 
 constexpr float kSupport = 1.7320508075688772f;  // the energy reaches sqrt(3) h (2 cos(pi/6) h)
 
-uint64_t material_mask(const fields::Feature& f) {
-  uint64_t m = 0;
-  for (int a = 0; a < f.material_count(); ++a) m |= uint64_t(1) << (f.materials[size_t(a)] & 63);
-  return m;
-}
-
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -77,7 +71,7 @@ std::vector<float> feature_ideals(const fields::ClosestPointEmbedding& E) {
 // ---------------------------------------------------------------------------------------------------------------
 
 HostIndex::HostIndex(const fields::ClosestPointEmbedding& E, double cell) : cell_(cell) {
-  for (const auto& f : E.features) masks_.push_back(material_mask(f));
+  for (const auto& f : E.features) masks_.push_back(f.material_mask());
 }
 
 glm::ivec3 HostIndex::cell_of(const glm::vec3& p) const { return glm::ivec3(glm::floor(glm::dvec3(p) / cell_)); }
