@@ -78,23 +78,27 @@ std::vector<uint16_t> hull_materials(const fields::IndicatorFields& F, const Tet
   return out;
 }
 
+uint16_t material_across(const Adjacency& adj, const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
+                         uint32_t tc) {
+  return adj.neighbour[tc] == Adjacency::kHull ? hull[tc] : material[adj.neighbour[tc] / 4];
+}
+
+bool face_is_wrong(const Tets& T, uint32_t tc, uint16_t m, uint16_t o, const std::vector<uint64_t>& vertex_materials) {
+  if (m == o) return false;
+  const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+  const auto& v = T.tets[tc / 4];
+  const int c = int(tc % 4);
+  for (int k = 0; k < 3; ++k)
+    if ((vertex_materials[v[size_t(kFace[c][k])]] & need) != need) return true;
+  return false;
+}
+
 size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                      const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes) {
-  auto other = [&](uint32_t tc) { return adj.neighbour[tc] == Adjacency::kHull ? hull[tc] : material[adj.neighbour[tc] / 4]; };
-  // A face between materials a != b is wrong when one of its vertices does not lie on a feature bounding both.
-  auto wrong = [&](uint32_t tc, uint16_t m) {
-    const uint16_t o = other(tc);
-    if (o == m) return false;
-    const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
-    const auto& v = T.tets[tc / 4];
-    const int c = int(tc % 4);
-    for (int k = 0; k < 3; ++k)
-      if ((vertex_materials[v[size_t(kFace[c][k])]] & need) != need) return true;
-    return false;
-  };
+  auto other = [&](uint32_t tc) { return material_across(adj, hull, material, tc); };
   auto cost = [&](uint32_t t, uint16_t m) {
     int n = 0;
-    for (uint32_t c = 0; c < 4; ++c) n += wrong(t * 4 + c, m);
+    for (uint32_t c = 0; c < 4; ++c) n += face_is_wrong(T, t * 4 + c, m, other(t * 4 + c), vertex_materials);
     return n;
   };
   size_t changed = 0;
@@ -128,23 +132,15 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
   return changed;
 }
 
-size_t count_wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                         const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
-  size_t n = 0;
+std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                  const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
+  std::vector<uint32_t> out;
   for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
     const uint32_t nb = adj.neighbour[tc];
     if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
-    const uint16_t m = material[tc / 4], o = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
-    if (m == o) continue;
-    const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
-    const auto f = outward_face(T, tc);
-    for (uint32_t v : f)
-      if ((vertex_materials[v] & need) != need) {
-        ++n;
-        break;
-      }
+    if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials)) out.push_back(tc);
   }
-  return n;
+  return out;
 }
 
 InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
@@ -155,7 +151,7 @@ InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std:
   for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
     const uint32_t nb = adj.neighbour[tc];
     if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
-    const uint16_t ma = material[tc / 4], mb = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
+    const uint16_t ma = material[tc / 4], mb = material_across(adj, hull, material, tc);
     if (ma == mb) continue;
     // Oriented out of the smaller material's side, so the normal points into the larger one.
     auto f = outward_face(T, tc);

@@ -99,26 +99,18 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     material = label_tets(F.fields, T);
     adj = build_adjacency(T);
     hull = hull_materials(F.fields, T, adj);
-    const size_t before = count_wrong_faces(T, adj, hull, vertex_materials, material);
-    if (round == 0) rep.wrong_faces_before_repair = before;
+    if (round == 0) rep.wrong_faces_before_repair = wrong_faces(T, adj, hull, vertex_materials, material).size();
     rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
-    rep.wrong_faces = count_wrong_faces(T, adj, hull, vertex_materials, material);
-    if (rep.wrong_faces == 0 || round == options.repair_rounds) break;
+    const auto wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+    rep.wrong_faces = wrong.size();
+    if (wrong.empty() || round == options.repair_rounds) break;
     size_t added = 0;
-    for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
-      const uint32_t nb = adj.neighbour[tc];
-      if (nb != Adjacency::kHull && nb < tc) continue;
-      const uint16_t m = material[tc / 4], o = nb == Adjacency::kHull ? hull[tc] : material[nb / 4];
-      if (m == o) continue;
-      const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+    for (uint32_t tc : wrong) {
+      const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
       const auto f = outward_face(T, tc);
-      uint64_t all = need;
-      bool wrong = false;
-      for (uint32_t v : f) {
-        all |= vertex_materials[v];
-        wrong |= (vertex_materials[v] & need) != need;
-      }
-      if (!wrong || std::popcount(all) != 3) continue;
+      uint64_t all = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
+      for (uint32_t v : f) all |= vertex_materials[v];
+      if (std::popcount(all) != 3) continue;
       std::array<uint16_t, 4> mats = {0xffff, 0xffff, 0xffff, 0xffff};
       for (int b = 0, k = 0; b < 64; ++b)
         if (all >> b & 1) mats[size_t(k++)] = uint16_t(b);
