@@ -211,11 +211,12 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
                       const PopulationOptions& options, std::mt19937& rng, RoundReport& report) {
   const size_t n = pop.particles.size();
   HostIndex index(E, typical_cell(E));
-  for (size_t i = 0; i < n; ++i) index.insert(pop.particles[i], pop.features[i]);  // ids equal i
+  std::vector<uint32_t> id(n);  // each particle's id in the index (a re-inserted particle gets a new one)
+  for (size_t i = 0; i < n; ++i) id[i] = index.insert(pop.particles[i], pop.features[i]);
   std::vector<uint8_t> alive(n, 1);
   auto ideal_of = [&](size_t i) { return ideal_energy(E.features[pop.features[i]].kind); };
   auto current = [&](size_t i) {
-    return index.energy(glm::vec3(pop.particles[i]), pop.particles[i].w, pop.features[i], uint32_t(i));
+    return index.energy(glm::vec3(pop.particles[i]), pop.particles[i].w, pop.features[i], id[i]);
   };
   std::vector<size_t> by_energy(n);
   std::iota(by_energy.begin(), by_energy.end(), size_t(0));
@@ -237,38 +238,23 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
 
   // a. The paper's step: delete candidates out, then back in one at a time, lowest energy first, if below 4x ideal.
   for (size_t i = 0; i < n; ++i)
-    if (flags[i] == 1) index.remove(uint32_t(i));
+    if (flags[i] == 1) index.remove(id[i]);
   for (size_t i : by_energy) {
     if (flags[i] != 1) continue;
     if (current(i) < options.readd_factor * ideal_of(i)) {
-      index.insert(pop.particles[i], pop.features[i]);  // a new id; the old one stays dead
+      id[i] = index.insert(pop.particles[i], pop.features[i]);
       continue;
     }
     alive[i] = 0;
     ++report.deleted;
     ++change[pop.features[i]];
   }
-  // The re-inserted particles have new ids; map each back for step b's energy queries.
-  // (Rebuilding is simpler than tracking ids: the index holds exactly the live particles.)
-  index = HostIndex(E, typical_cell(E));
-  for (size_t i = 0; i < n; ++i)
-    if (alive[i]) index.insert(pop.particles[i], pop.features[i]);
-  std::vector<uint32_t> id(n, ~0u);
-  {
-    uint32_t next = 0;
-    for (size_t i = 0; i < n; ++i)
-      if (alive[i]) id[i] = next++;
-  }
-  auto current_live = [&](size_t i) {
-    return index.energy(glm::vec3(pop.particles[i]), pop.particles[i].w, pop.features[i], id[i]);
-  };
-
   // b. Too dense features: remove the highest-energy particles while each is still above ideal when its turn comes.
   for (auto it = by_energy.rbegin(); it != by_energy.rend(); ++it) {
     const size_t i = *it;
     const uint32_t f = pop.features[i];
     if (!alive[i] || change[f] >= 0 || feature_dimension(E.features[f].kind) == 0) continue;
-    if (current_live(i) <= ideal_of(i)) continue;
+    if (current(i) <= ideal_of(i)) continue;
     index.remove(id[i]);
     alive[i] = 0;
     ++report.deleted;
