@@ -6,7 +6,6 @@
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
 // directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral.
 // Not yet: the scaling table (issue 9).
-#include <sys/resource.h>
 
 #include <unistd.h>
 
@@ -19,30 +18,12 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/read_volume.h"
-#include "io/synth_volumes.h"
 #include "bench_util.h"
 #include "mesh/pipeline.h"
 
 using namespace cpmesh;
 using bench::peak_rss_mib;
 
-namespace {
-
-io::LabelVolume load(const std::string& spec) {
-  const auto colon = spec.find(':');
-  if (colon != std::string::npos && spec.find('.') == std::string::npos) {
-    io::SynthOptions o;
-    o.shape = io::parse_synth_shape(spec.substr(0, colon));
-    o.size = std::stoi(spec.substr(colon + 1));
-    auto v = io::make_synth_volume(o).volume;
-    v.source = spec;
-    return v;
-  }
-  return io::read_label_volume(spec);
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Benchmark of the whole pipeline: labels to interface and tet meshes"};
@@ -69,7 +50,7 @@ int main(int argc, char** argv) {
     std::printf(" %8s %9s %9s %9s %6s %6s %8s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
                 "rr min", "dihedral", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
-      const auto volume = load(spec);
+      const auto volume = bench::load_volume_spec(spec);
       mesh::MeshOptions options;
       options.only_surfaces = only_surfaces;
       options.fields.sizing.h_max = max_size;

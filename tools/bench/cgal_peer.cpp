@@ -19,8 +19,7 @@
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/make_mesh_3.h>
 
-#include "io/read_volume.h"
-#include "io/synth_volumes.h"
+#include "bench_util.h"
 #include "mesh/quality.h"
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -48,16 +47,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    cpmesh::io::LabelVolume vol;
-    const auto colon = spec.find(':');
-    if (colon != std::string::npos && spec.find('.') == std::string::npos) {
-      cpmesh::io::SynthOptions o;
-      o.shape = cpmesh::io::parse_synth_shape(spec.substr(0, colon));
-      o.size = std::stoi(spec.substr(colon + 1));
-      vol = cpmesh::io::make_synth_volume(o).volume;
-    } else {
-      vol = cpmesh::io::read_label_volume(spec);
-    }
+    const cpmesh::io::LabelVolume vol = cpmesh::bench::load_volume_spec(spec);
     const double voxel = std::min({vol.spacing[0], vol.spacing[1], vol.spacing[2]});
     _image* img = _createImage(size_t(vol.dims[0]), size_t(vol.dims[1]), size_t(vol.dims[2]), 1, vol.spacing[0],
                                vol.spacing[1], vol.spacing[2], 2, WK_FIXED, SGN_UNSIGNED);
