@@ -38,20 +38,7 @@ io::FloatVolume float_volume_like(const io::LabelVolume& v) {
 
 }  // namespace
 
-Command add_fields_command(CLI::App& app, const GlobalOptions&) {
-  struct Options {
-    VolumeInput input;
-    std::string out;
-    fields::FieldsOptions fields;
-    bool no_volumes = false;
-  };
-  auto o = std::make_shared<Options>();
-  auto* sub = app.add_subcommand(
-      "fields", "Build the indicator fields, closest point embedding and sizing field of a volume and write them for "
-                "inspection (NRRD volumes, a VTK point cloud of closest points, fields.json)");
-  add_volume_input(sub, o->input);
-  sub->add_option("-o,--out", o->out, "Output directory (created)")->required();
-  auto& f = o->fields;
+void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
   sub->add_option("--sigma", f.indicator.smoothing_sigma, "Antialiasing Gaussian sigma, voxels")->capture_default_str();
   sub->add_option("--tighten", f.indicator.tighten_radius,
                   "Tightening radius r, voxels: smallest curvature radius kept; parts thinner than ~2r are kept as "
@@ -65,6 +52,27 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
   sub->add_option("--min-size", f.sizing.h_min, "Smallest h, physical units (0: a quarter voxel)")->capture_default_str();
   sub->add_option("--max-size", f.sizing.h_max, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
   sub->add_option("--grading", f.sizing.grading, "Lipschitz bound of h")->capture_default_str();
+}
+
+void add_advection_options(CLI::App* sub, particles::AdvectionOptions& a) {
+  sub->add_option("--theta", a.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
+  sub->add_option("--delta", a.delta, "Stop rule: relative energy decrease per iteration (paper: 0.0015)")->capture_default_str();
+}
+
+Command add_fields_command(CLI::App& app, const GlobalOptions&) {
+  struct Options {
+    VolumeInput input;
+    std::string out;
+    fields::FieldsOptions fields;
+    bool no_volumes = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand(
+      "fields", "Build the indicator fields, closest point embedding and sizing field of a volume and write them for "
+                "inspection (NRRD volumes, a VTK point cloud of closest points, fields.json)");
+  add_volume_input(sub, o->input);
+  sub->add_option("-o,--out", o->out, "Output directory (created)")->required();
+  add_fields_options(sub, o->fields);
   sub->add_flag("--no-volumes", o->no_volumes, "Skip the per-material NRRD volumes (large for big inputs)");
   return {sub, [o] {
             Progress progress(5);

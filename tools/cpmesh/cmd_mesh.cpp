@@ -54,12 +54,8 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::IsMember({"vtu", "mesh", "tetgen"}))
       ->capture_default_str();
   auto& m = o->mesh;
-  sub->add_option("--min-size", m.fields.sizing.h_min, "Smallest h, physical units (0: a quarter voxel)")->capture_default_str();
-  sub->add_option("--max-size", m.fields.sizing.h_max, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
-  sub->add_option("--grading", m.fields.sizing.grading, "Lipschitz bound of the sizing field")->capture_default_str();
-  sub->add_option("--density", m.fields.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
-  sub->add_option("--tighten", m.fields.indicator.tighten_radius, "Tightening radius, voxels (0: off)")->capture_default_str();
-  sub->add_option("--theta", m.advection.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
+  add_fields_options(sub, m.fields);
+  add_advection_options(sub, m.advection);
   add_population_options(sub, m.population);
   // TetGen's refinement is only known to end for radius-edge bounds above about 1.1 and dihedral bounds below about
   // 18 degrees (a bound of 1.1/20 ran without end on a 36^3 sphere), so tighter requests are refused.

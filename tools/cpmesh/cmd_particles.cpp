@@ -59,14 +59,8 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
                    "seeding, GPU advection with add/delete rounds; writes particles.vtp and particles.json");
   add_volume_input(sub, o->input);
   sub->add_option("-o,--out", o->out, "Output directory (created)")->required();
-  auto& f = o->fields;
-  sub->add_option("--tighten", f.indicator.tighten_radius, "Tightening radius r, voxels (0: off)")->capture_default_str();
-  sub->add_option("--density", f.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
-  sub->add_option("--min-size", f.sizing.h_min, "Smallest h, physical units (0: a quarter voxel)")->capture_default_str();
-  sub->add_option("--max-size", f.sizing.h_max, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
-  auto& a = o->advection;
-  sub->add_option("--theta", a.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
-  sub->add_option("--delta", a.delta, "Stop rule: relative energy decrease per iteration (paper: 0.0015)")->capture_default_str();
+  add_fields_options(sub, o->fields);
+  add_advection_options(sub, o->advection);
   add_population_options(sub, o->population);
   sub->add_flag("--grid-seeding", o->grid_seeding, "Seed with grid points only (BioMesh3D's seeding, for comparison)");
   return {sub, [o, &g] {

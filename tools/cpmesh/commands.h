@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "gpu/context.h"
+#include "fields/fields_stage.h"
 #include "particles/population.h"
 
 namespace cpmesh::cli {
@@ -30,6 +31,9 @@ Command add_fields_command(CLI::App& app, const GlobalOptions& g);
 Command add_particles_command(CLI::App& app, const GlobalOptions& g);
 Command add_mesh_command(CLI::App& app, const GlobalOptions& g);
 
+// Option groups shared by the commands that run those stages (one help text each).
+void add_fields_options(CLI::App* sub, fields::FieldsOptions& f);              // fields, particles, mesh
+void add_advection_options(CLI::App* sub, particles::AdvectionOptions& a);     // particles, mesh
 // The population parameters (seeding, add/delete), shared by `particles` and `mesh`.
 void add_population_options(CLI::App* sub, particles::PopulationOptions& p);
 
