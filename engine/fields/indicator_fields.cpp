@@ -162,10 +162,9 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         box.hi = glm::max(box.hi, glm::ivec3(i, j, k));
       }
 
-  // Distance to the junctions (voxel corners where three or more labels meet). Near them the smoothing is faded
-  // out: smoothing each material's distance field alone rounds every wedge-shaped edge of a material and so moves
-  // triple curves and quadruple points (about 0.6 voxel into the convex side at sigma = 1); the unsmoothed distance
-  // fields meet at the right place.
+  // Distance to the junctions (voxel corners where three or more labels meet). Near them the smoothing changes:
+  // smoothing each material's distance field alone rounds every wedge-shaped edge of a material and so moves
+  // triple curves and quadruple points (about 0.5 voxel into the convex side at sigma = 1).
   std::vector<float> junction_distance;
   if (options.junction_fade > 0) {
     junction_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
@@ -260,19 +259,29 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       }
     });
     to_outside = {};
-    // Constrained smoothing: no voxel centre changes side.
+    // Constrained smoothing: no voxel centre changes side. Near junctions the plain Gaussian gives way to Tukey's
+    // twicing of a narrower one, 2 G_j f - G_j G_j f: it removes the staircase as well, but rounds the wedge-shaped
+    // edges of materials far less (at a kink, 0.33 voxel at sigma_j = 0.7 against 0.8 for sigma = 1), and it is that
+    // rounding, unequal between a material's 90-degree edge and its neighbour's flat side, that moves triple curves.
     const float keep = float(1e-3 * h);
-    const std::vector<float> raw = junction_distance.empty() ? std::vector<float>() : phi;
+    const bool twice = !junction_distance.empty();
+    std::vector<float> narrow, narrow2;
+    auto blur = [&](std::vector<float>& f, double sigma) {
+      for (int axis = 0; axis < 3; ++axis) gaussian_pass(f, n, axis, sigma / grid.spacing[axis]);
+    };
     for (int it = 0; it < options.smoothing_iterations; ++it) {
-      for (int axis = 0; axis < 3; ++axis) gaussian_pass(phi, n, axis, sigma_phys / grid.spacing[axis]);
+      if (twice) {
+        narrow = phi;
+        blur(narrow, options.junction_sigma * h);
+        narrow2 = narrow;
+        blur(narrow2, options.junction_sigma * h);
+      }
+      blur(phi, sigma_phys);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t ci = r.begin(); ci < r.end(); ++ci) {
-          if (!raw.empty()) {
-            const double d = std::sqrt(double(junction_distance[full_index(ci)]));
-            const double w = std::clamp(d / fade, 0.0, 1.0);
-            // never fully raw by default: some smoothing keeps the staircase down
-            const double smooth = options.junction_smoothing + (1 - options.junction_smoothing) * w * w * (3 - 2 * w);
-            phi[ci] = float(smooth * phi[ci] + (1 - smooth) * raw[ci]);
+          if (twice) {
+            const double w = smoothstep01(std::sqrt(double(junction_distance[full_index(ci)])) / fade);
+            phi[ci] = float(w * phi[ci] + (1 - w) * (2.0 * narrow[ci] - narrow2[ci]));
           }
           phi[ci] = inside[ci] ? std::max(phi[ci], keep) : std::min(phi[ci], -keep);
         }

@@ -10,7 +10,7 @@
 // Tightening may move a surface across voxel centres; three things keep it honest:
 //  - parts thinner than about 2r (no voxel of the material is r deep within 2r of them: sheets, vessels, small
 //    components) are protected and kept as they are; their voxel count is reported (IndicatorFields::protected_voxels);
-//  - the flow fades out near junctions like the smoothing does, so triple curves and quadruple points stay put;
+//  - the flow fades out near junctions (where the smoothing turns into twicing), so triple curves and quadruple points stay put;
 //  - the voxel centres that did change material are counted per material (tightened_voxels).
 // Values are physical distances (local units), clamped to +-band outside a narrow band, and stored in sparse bricks.
 #include <cstdint>
@@ -25,8 +25,9 @@ struct IndicatorOptions {
   double smoothing_sigma = 1.0;  // Gaussian sigma, in voxels of the smallest spacing
   int smoothing_iterations = 2;  // smooth + constrain rounds
   double band = 4.0;             // narrow-band half-width, in voxels of the smallest spacing
-  double junction_fade = 3.0;    // voxels: smoothing fades out this close to where three or more labels meet (0: off)
-  double junction_smoothing = 0.3;  // share of the smoothing kept at the junctions themselves
+  double junction_fade = 3.0;    // voxels: this close to where three or more labels meet, the smoothing turns into
+                                 // twicing (below) to keep triple curves in place (0: plain smoothing everywhere)
+  double junction_sigma = 0.7;   // voxels: sigma of the twiced Gaussian used at junctions
   double tighten_radius = 1.0;   // r, in voxels of the smallest spacing: smallest curvature radius kept (0: off)
   int tighten_iterations = 0;    // flow steps (0: automatic, enough to move r)
 };

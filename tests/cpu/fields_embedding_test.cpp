@@ -98,10 +98,10 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
   }
   MESSAGE("triple-curve closest points: distance to the analytic curves mean " << sum_curve / double(n_curve)
                                                                               << ", max " << worst_curve << " voxel");
-  // Issue 5 asks for 0.75 voxel at most; measured mean 0.33, max 0.751 here (0.70 at 64^3, 0.79 at 96^3): the
-  // staircase of three labels near a curve, where smoothing is faded. Held to what is reached, so a regression shows.
-  CHECK(sum_curve / double(n_curve) < 0.45);
-  CHECK(worst_curve < 0.8);
+  // Issue 5 asks for 0.75 voxel at most: measured mean 0.30, max 0.67 here (0.70 at 64^3 and 96^3, but 0.83 at 40^3
+  // and 128^3: the curves where a material's flat side meets two wedge edges still move ~0.25 voxel on average).
+  CHECK(sum_curve / double(n_curve) < 0.4);
+  CHECK(worst_curve < 0.75);
   REQUIRE(E.quadruple_points.size() == 4);
   REQUIRE(wb.junctions.quadruple_points.size() == 4);
   for (const auto& q : wb.junctions.quadruple_points) {
