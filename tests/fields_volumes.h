@@ -27,19 +27,9 @@ inline FieldsVolume make_volume(io::SynthShape shape, int size, double radius = 
           std::move(s.junctions)};
 }
 
-// Distance from p to the analytic triple curve(s) of the given (ascending) labels: polyline segments.
+// Distance from p to the analytic triple curve(s) of the given (ascending) labels.
 inline double distance_to_curve(const io::Junctions& j, const std::array<uint16_t, 3>& materials, const glm::dvec3& p) {
-  double best = 1e300;
-  for (const auto& c : j.triple_curves) {
-    if (c.materials != materials) continue;
-    for (size_t i = 0; i + 1 < c.points.size(); ++i) {
-      const glm::dvec3 a(c.points[i][0], c.points[i][1], c.points[i][2]);
-      const glm::dvec3 b(c.points[i + 1][0], c.points[i + 1][1], c.points[i + 1][2]);
-      const double t = std::clamp(glm::dot(p - a, b - a) / std::max(glm::dot(b - a, b - a), 1e-30), 0.0, 1.0);
-      best = std::min(best, glm::length(p - (a + t * (b - a))));
-    }
-  }
-  return best;
+  return io::distance_to_triple_curve(j, materials, {p.x, p.y, p.z});
 }
 
 }  // namespace cpmesh::test

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 #include <nlohmann/json.hpp>
@@ -84,6 +85,21 @@ Junctions wedge_ball_junctions(const WedgeBall& w) {
 }
 
 }  // namespace
+
+double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const Vec& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& c : j.triple_curves) {
+    if (c.materials != materials) continue;
+    for (size_t i = 0; i + 1 < c.points.size(); ++i) {
+      const Vec& a = c.points[i];
+      const Vec ab = add(c.points[i + 1], scale(a, -1)), ap = add(p, scale(a, -1));
+      const double len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+      const double t = std::clamp((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / std::max(len2, 1e-30), 0.0, 1.0);
+      best = std::min(best, dist(p, add(a, scale(ab, t))));
+    }
+  }
+  return best;
+}
 
 SynthShape parse_synth_shape(const std::string& name) {
   if (name == "sphere") return SynthShape::sphere;

@@ -49,6 +49,10 @@ struct SynthVolume {
   std::string description;  // the analytic parameters, for the JSON file
 };
 
+// Distance from p to the analytic triple curve(s) of three (ascending) labels, physical units; infinity when the
+// junctions have no such curve.
+double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const std::array<double, 3>& p);
+
 SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells"
 SynthVolume make_synth_volume(const SynthOptions& o);
 // JSON: {"shape", "parameters", "quadruple_points": [{"materials", "position"}], "triple_curves": [{"materials",

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 namespace cpmesh::mesh {
 
@@ -83,6 +84,31 @@ SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& T, const 
     }
   }
   return c;
+}
+
+std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t, 3>>& T,
+                                          const std::vector<std::array<uint16_t, 2>>& pair) {
+  std::map<std::pair<uint32_t, uint32_t>, std::set<std::array<uint16_t, 2>>> pairs_of;
+  for (size_t t = 0; t < T.size(); ++t)
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = T[t][size_t(e)], b = T[t][size_t((e + 1) % 3)];
+      std::array<uint16_t, 2> p = pair[t];
+      if (p[0] > p[1]) std::swap(p[0], p[1]);
+      pairs_of[{std::min(a, b), std::max(a, b)}].insert(p);
+    }
+  std::vector<CurveEdge> out;
+  for (const auto& [edge, pairs] : pairs_of) {
+    if (pairs.size() < 3) continue;
+    std::set<uint16_t> mats;
+    for (const auto& p : pairs) mats.insert(p.begin(), p.end());
+    if (mats.size() != 3) continue;
+    CurveEdge c;
+    c.a = edge.first;
+    c.b = edge.second;
+    std::copy(mats.begin(), mats.end(), c.materials.begin());
+    out.push_back(c);
+  }
+  return out;
 }
 
 size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& T) {

@@ -32,6 +32,15 @@ struct SurfaceCheck {
 };
 // vertex_on_curve[v]: the vertex is a triple-curve or quadruple-point particle.
 SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint8_t>& vertex_on_curve);
+// Triple-curve edges of a set of interface meshes: edges in triangles of three material pairs or more that
+// together span exactly three materials (pair[t] = the two materials triangle t separates). Works on any mesher's
+// output, ours or a peer's, since it needs no vertex tags.
+struct CurveEdge {
+  uint32_t a = 0, b = 0;                  // a < b
+  std::array<uint16_t, 3> materials{};    // ascending
+};
+std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t, 3>>& triangles,
+                                          const std::vector<std::array<uint16_t, 2>>& pair);
 // Edges of the triangles used an odd number of times (0: closed).
 size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& triangles);
 

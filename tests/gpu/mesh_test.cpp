@@ -144,25 +144,14 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(shared > 50);
   // Mesh edges on triple curves (both ends curve or quadruple-point vertices, in triangles of three material pairs or
   // more): distance of their midpoints to the analytic curves.
-  std::map<std::pair<uint32_t, uint32_t>, std::set<std::array<uint16_t, 2>>> edge_pairs;
-  for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)
-    for (int e = 0; e < 3; ++e) {
-      const uint32_t a = r.surfaces.triangles[i][size_t(e)], b = r.surfaces.triangles[i][size_t((e + 1) % 3)];
-      edge_pairs[{std::min(a, b), std::max(a, b)}].insert(r.surfaces.triangle_pair[i]);
-    }
   double worst = 0, sum = 0;
   size_t n = 0;
-  for (const auto& [edge, pairs] : edge_pairs) {
-    if (pairs.size() < 3) continue;
-    if (r.surfaces.vertex_feature[edge.first] == uint8_t(io::VertexFeature::interface) ||
-        r.surfaces.vertex_feature[edge.second] == uint8_t(io::VertexFeature::interface))
+  for (const auto& e : mesh::triple_curve_edges(r.surfaces.triangles, r.surfaces.triangle_pair)) {
+    if (r.surfaces.vertex_feature[e.a] == uint8_t(io::VertexFeature::interface) ||
+        r.surfaces.vertex_feature[e.b] == uint8_t(io::VertexFeature::interface))
       continue;
-    std::set<uint16_t> mats;
-    for (const auto& p : pairs) mats.insert(p.begin(), p.end());
-    if (mats.size() != 3) continue;
-    const std::array<uint16_t, 3> m3 = {*mats.begin(), *std::next(mats.begin()), *std::next(mats.begin(), 2)};
-    const glm::dvec3 mid = 0.5 * (vec(r.surfaces.vertices[edge.first]) + vec(r.surfaces.vertices[edge.second]));
-    const double d = test::distance_to_curve(wb.junctions, m3, mid);  // both physical
+    const glm::dvec3 mid = 0.5 * (vec(r.surfaces.vertices[e.a]) + vec(r.surfaces.vertices[e.b]));
+    const double d = test::distance_to_curve(wb.junctions, e.materials, mid);  // both physical
     worst = std::max(worst, d);
     sum += d;
     ++n;

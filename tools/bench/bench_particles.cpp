@@ -2,19 +2,24 @@
 // features) at hexagonal density for their sizing, a fixed number of iterations in exact and Barnes-Hut modes, per-kernel GPU time (timestamps), pairs
 // evaluated per second and the final energy, side by side. Then the population (issue 7) on synthetic volumes:
 // the paper's seeding against grid points alone, each relaxed with add/delete rounds to a settled population:
-// seeds, final particles, rounds, iterations, time. Prints tables and one JSON line per run.
+// seeds, final particles, rounds, iterations, time. With --scaling: Barnes-Hut iterations on the sphere as the
+// particle count grows (issue 9): time per iteration and per stage of the iteration, device memory, log-log
+// exponents fitted over the counts, and the memory of the fields per interface voxel. Prints tables and one JSON
+// line per run.
 //   cpmesh-bench-particles [--device D] [--particles 10000,100000] [--iterations 10] [--theta 0.75]
-//                          [--population wedge-ball:48,sphere:64]
+//                          [--population wedge-ball:48,sphere:64] [--scaling 10000,100000,1000000,2000000]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <random>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench_util.h"
 #include "fields/fields_stage.h"
 #include "fields/volume_grid.h"
 #include "gpu/describe.h"
@@ -24,6 +29,128 @@
 #include "ref/cp_lookup.h"
 
 using namespace cpmesh;
+
+namespace {
+
+// Least-squares slope of log y against log x: the exponent of y ~ x^k.
+double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = x.size();
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double lx = std::log(x[i]), ly = std::log(std::max(y[i], 1e-9));
+    sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+  }
+  const double d = double(n) * sxx - sx * sx;
+  return d > 0 ? (double(n) * sxy - sx * sy) / d : 0.0;
+}
+
+// The stages of one iteration, by kernel: sort (Morton codes and radix passes), tree (octree levels, scans,
+// compaction, moments), walk (Barnes-Hut forces), advect (move and project), other (energy reduction).
+const char* kernel_stage(const std::string& kernel) {
+  if (kernel == "morton_codes" || kernel.rfind("radix", 0) == 0) return "sort";
+  if (kernel.rfind("octree", 0) == 0 || kernel.rfind("scan", 0) == 0 || kernel.rfind("compact", 0) == 0) return "tree";
+  if (kernel == "tree_walk") return "walk";
+  if (kernel == "advect") return "advect";
+  return "other";
+}
+
+template <class Start>
+void run_scaling(gpu::Context& ctx, fields::FieldsResult& F, std::vector<uint32_t> counts, int iterations, float theta,
+                 Start&& sphere_start) {
+  std::sort(counts.begin(), counts.end());
+  const char* stages[] = {"sort", "tree", "walk", "advect", "other"};
+  std::printf("\nScaling on %s: Barnes-Hut (theta %.2f) on the sphere, %d iterations per count; ms per iteration, "
+              "device memory of the particle system\n",
+              ctx.info().name.c_str(), double(theta), iterations);
+  std::printf("%10s %10s %9s %9s %9s %9s %9s %11s %12s\n", "particles", "ms/iter", "sort", "tree", "walk", "advect",
+              "other", "device MiB", "ns/particle");
+  std::vector<double> xs, total;
+  std::map<std::string, std::vector<double>> per_stage;
+  std::vector<double> device_bytes;
+  nlohmann::json rows = nlohmann::json::array();
+  for (uint32_t n : counts) {
+    const auto start = sphere_start(n);
+    const uint64_t before = ctx.memory_stats().current_bytes;
+    particles::AdvectionOptions opt;
+    opt.theta = theta;
+    particles::ParticleSystem system(ctx, F.embedding, start, std::vector<uint32_t>(n, 0), opt);
+    system.step();  // warm-up
+    const double bytes = double(ctx.memory_stats().current_bytes - before);
+    ctx.clear_profile();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int it = 0; it < iterations; ++it) system.step();
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / iterations;
+    std::map<std::string, double> stage_ms;
+    for (const char* st : stages) stage_ms[st] = 0;
+    for (const auto& [kernel, entry] : ctx.profile()) stage_ms[kernel_stage(kernel)] += entry.total_ms / iterations;
+    xs.push_back(double(n));
+    total.push_back(ms);
+    device_bytes.push_back(bytes);
+    for (const char* st : stages) per_stage[st].push_back(stage_ms[st]);
+    std::printf("%10u %10.1f %9.1f %9.1f %9.1f %9.1f %9.1f %11.1f %12.1f\n", n, ms, stage_ms["sort"], stage_ms["tree"],
+                stage_ms["walk"], stage_ms["advect"], stage_ms["other"], bytes / 1048576.0, 1e6 * ms / double(n));
+    rows.push_back({{"particles", n}, {"ms_per_iteration", ms}, {"stages_ms", stage_ms}, {"device_bytes", bytes}});
+  }
+  // Fitted exponents over all counts and over the upper half (where fixed per-dispatch costs no longer dominate).
+  const size_t half = xs.size() / 2;
+  auto upper = [&](const std::vector<double>& v) { return std::vector<double>(v.begin() + long(half), v.end()); };
+  nlohmann::json exponents;
+  std::printf("fitted exponent k in time ~ n^k: %-8s all counts %.2f, upper half %.2f\n", "total", loglog_slope(xs, total),
+              loglog_slope(upper(xs), upper(total)));
+  exponents["total"] = {loglog_slope(xs, total), loglog_slope(upper(xs), upper(total))};
+  for (const char* st : stages) {
+    std::printf("fitted exponent k in time ~ n^k: %-8s all counts %.2f, upper half %.2f\n", st,
+                loglog_slope(xs, per_stage[st]), loglog_slope(upper(xs), upper(per_stage[st])));
+    exponents[st] = {loglog_slope(xs, per_stage[st]), loglog_slope(upper(xs), upper(per_stage[st]))};
+  }
+  // Device memory = fixed (the embedding) + per particle: least-squares line through (n, bytes).
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < xs.size(); ++i) mx += xs[i] / double(xs.size()), my += device_bytes[i] / double(xs.size());
+  double sxy = 0, sxx = 0;
+  for (size_t i = 0; i < xs.size(); ++i) sxy += (xs[i] - mx) * (device_bytes[i] - my), sxx += (xs[i] - mx) * (xs[i] - mx);
+  const double per_particle = sxx > 0 ? sxy / sxx : 0.0, fixed = my - per_particle * mx;
+  std::printf("device memory: %.0f bytes per particle + %.1f MiB fixed (the embedding and tables)\n", per_particle,
+              fixed / 1048576.0);
+  std::cout << nlohmann::json{{"benchmark", "scaling"}, {"device", ctx.info().name}, {"theta", theta},
+                              {"iterations", iterations}, {"rows", rows}, {"exponents_all_upper", exponents},
+                              {"device_bytes_per_particle", per_particle}, {"device_bytes_fixed", fixed}}
+                   .dump()
+            << '\n';
+}
+
+// Host memory of the fields per interface voxel (a voxel with a 6-neighbour of another label): what grows with the
+// interface area rather than the volume.
+void fields_memory_row(const std::string& spec) {
+  const auto vol = bench::load_volume_spec(spec);
+  const auto grid = fields::grid_of(vol);
+  const auto F = fields::build_fields(grid, vol.labels.data());
+  uint64_t interface_voxels = 0;
+  for (int k = 0; k < grid.dims.z; ++k)
+    for (int j = 0; j < grid.dims.y; ++j)
+      for (int i = 0; i < grid.dims.x; ++i) {
+        const uint16_t l = vol.labels[grid.index(i, j, k)];
+        bool differs = false;
+        for (int a = 0; a < 3 && !differs; ++a)
+          for (int s : {-1, 1}) {
+            glm::ivec3 q(i, j, k);
+            q[a] += s;
+            if (q[a] < 0 || q[a] >= grid.dims[a]) continue;
+            differs |= vol.labels[grid.index(q.x, q.y, q.z)] != l;
+          }
+        interface_voxels += differs;
+      }
+  const double ind = double(F.report.indicator_bytes), emb = double(F.report.embedding_bytes);
+  const double iv = double(std::max<uint64_t>(interface_voxels, 1));
+  std::printf("%-16s %12llu %14.0f %14.0f %14.0f\n", spec.c_str(), static_cast<unsigned long long>(interface_voxels),
+              ind / iv, emb / iv, (ind + emb) / iv);
+  std::cout << nlohmann::json{{"benchmark", "fields_memory"}, {"volume", spec}, {"interface_voxels", interface_voxels},
+                              {"indicator_bytes", ind}, {"embedding_bytes", emb},
+                              {"bytes_per_interface_voxel", (ind + emb) / iv}}
+                   .dump()
+            << '\n';
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Benchmark of the GPU particle iteration (exact and Barnes-Hut walks)"};
@@ -40,7 +167,13 @@ int main(int argc, char** argv) {
                  "Volumes (shape:size) for the seeding comparison, shape = sphere, wedge-ball, slabs or shells")
       ->delimiter(',')
       ->capture_default_str();
+  std::vector<uint32_t> scaling;
+  app.add_option("--scaling", scaling,
+                 "Particle counts of the scaling table (Barnes-Hut, sphere); given alone, only that table runs")
+      ->delimiter(',');
   CLI11_PARSE(app, argc, argv);
+  if (!scaling.empty() && app.count("--particles") == 0) counts.clear();
+  if (!scaling.empty() && app.count("--population") == 0) populations.clear();
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, true});
     // One sphere (radius 40 voxels in 96^3); h is set per run so the sphere holds the asked number of particles.
@@ -51,11 +184,13 @@ int main(int argc, char** argv) {
     const auto vol = io::make_synth_volume(so);
     const glm::dvec3 centre(vol.centre[0], vol.centre[1], vol.centre[2]);
     auto F = fields::build_fields(fields::grid_of(vol.volume), vol.volume.labels.data());
-    std::printf("Particle iterations on %s, %d iterations per run; sphere: R = 40 voxels in 96^3, wedge ball: 128^3, "
-                "random particles at hexagonal density for h\n",
-                ctx.info().name.c_str(), iterations);
-    std::printf("%-11s %-10s %-8s %10s %12s %14s %12s %12s %14s\n", "volume", "particles", "walk", "ms/iter",
+    if (!counts.empty()) {
+      std::printf("Particle iterations on %s, %d iterations per run; sphere: R = 40 voxels in 96^3, wedge ball: 128^3, "
+                  "random particles at hexagonal density for h\n",
+                  ctx.info().name.c_str(), iterations);
+      std::printf("%-11s %-10s %-8s %10s %12s %14s %12s %12s %14s\n", "volume", "particles", "walk", "ms/iter",
                 "walk ms/iter", "Mpairs/s", "pairs/part", "nodes/part", "final energy");
+    }
     // Times `iterations` steps of both walks from one start and prints a row and a JSON line for each.
     auto time_modes = [&](const char* volume, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& start,
                           const std::vector<uint32_t>& features) {
@@ -93,7 +228,8 @@ int main(int argc, char** argv) {
         std::cout << j.dump() << '\n';
       }
     };
-    for (uint32_t n : counts) {
+    // n random particles on the sphere, the sizing field set to h for hexagonal density.
+    auto sphere_start = [&](uint32_t n) {
       const float h = float(std::sqrt(4.0 * M_PI * 40.0 * 40.0 / (0.866 * n)));
       for (auto& p : F.embedding.fine) p.w = h;
       std::mt19937 rng(n);
@@ -104,9 +240,17 @@ int main(int argc, char** argv) {
         const auto cp = ref::cp_lookup(F.embedding, glm::vec3(centre + 40.0 * dir), 0);
         if (cp.valid) start.push_back(cp.value);
       }
-      time_modes("sphere", F.embedding, start, std::vector<uint32_t>(n, 0));
+      return start;
+    };
+    for (uint32_t n : counts) time_modes("sphere", F.embedding, sphere_start(n), std::vector<uint32_t>(n, 0));
+    if (!scaling.empty()) {
+      run_scaling(ctx, F, scaling, iterations, theta, sphere_start);
+      std::printf("\nFields memory (host) per interface voxel\n%-16s %12s %14s %14s %14s\n", "volume", "iface voxels",
+                  "indicator B", "embedding B", "total B");
+      for (const char* spec : {"sphere:64", "wedge-ball:64", "wedge-ball:128", "shells:128"}) fields_memory_row(spec);
     }
 
+    if (counts.empty()) return 0;
     // The wedge ball: particles on all 9 interfaces and 8 triple curves and at the 4 quadruple points, each a random
     // point of a random touching block of its feature projected by the lookup; h from the interface area (one
     // touching block per voxel of surface, about) so the count is at hexagonal density.

@@ -5,7 +5,8 @@
 //                         [--only-surfaces] [--max-size H]
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
 // directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral.
-// Not yet: the scaling table (issue 9).
+// Junction error (wedge ball): distance of the triple-curve edges' midpoints to the analytic curves, mean and max in
+// voxels, for both. The scaling table is cpmesh-bench-particles --scaling.
 
 #include <unistd.h>
 
@@ -14,6 +15,7 @@
 #include <memory>
 #include <cstdio>
 #include <iostream>
+#include <string>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -24,11 +26,23 @@
 using namespace cpmesh;
 using bench::peak_rss_mib;
 
+namespace {
+
+// "mean/max" in voxels, or "-" where the volume has no analytic junctions.
+std::string junction_cell(bool known, const bench::JunctionError& e) {
+  if (!known) return "-";
+  char cell[64];
+  std::snprintf(cell, sizeof cell, "%.2f/%.2f", e.mean, e.max);
+  return cell;
+}
+
+}  // namespace
+
 
 int main(int argc, char** argv) {
   CLI::App app{"Benchmark of the whole pipeline: labels to interface and tet meshes"};
   std::string device;
-  std::vector<std::string> volumes = {"wedge-ball:64", "wedge-ball:128"};
+  std::vector<std::string> volumes = {"wedge-ball:64", "wedge-ball:128", "wedge-ball:256", "shells:128"};
   bool only_surfaces = false;
   double max_size = 0;
   app.add_option("--device", device, "Vulkan device index or name substring");
@@ -47,8 +61,8 @@ int main(int argc, char** argv) {
     const char* stages[] = {"fields", "seeding", "advection", "delaunay and extraction", "quality", "volume mesh"};
     std::printf("Pipeline on %s\n%-16s", ctx.info().name.c_str(), "volume");
     for (const char* s : {"fields", "seeding", "advection", "delaunay", "quality", "volume"}) std::printf(" %9s", s);
-    std::printf(" %8s %9s %9s %9s %6s %6s %8s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
-                "rr min", "dihedral", "host MiB", "dev MiB");
+    std::printf(" %8s %9s %9s %9s %6s %6s %8s %11s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
+                "rr min", "dihedral", "junction", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
       const auto volume = bench::load_volume_spec(spec);
       mesh::MeshOptions options;
@@ -72,10 +86,15 @@ int main(int argc, char** argv) {
         }
       }
       const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
-      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %8.0f %8.0f\n", total, rep.particles, rep.surface.triangles,
-                  rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
-                  rep.volume.min_dihedral_deg, peak_rss_mib(), dev_mib);
-      const nlohmann::json j = {
+      const auto junctions = bench::synth_junctions(spec);
+      bench::JunctionError je;
+      if (junctions)
+        je = bench::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
+                                   std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
+      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %11s %8.0f %8.0f\n", total, rep.particles,
+                  rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
+                  rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
+      nlohmann::json j = {
           {"benchmark", "pipeline"}, {"device", ctx.info().name}, {"volume", spec}, {"seconds", seconds},
           {"total_s", total}, {"particles", rep.particles}, {"iterations", rep.iterations}, {"rounds", rep.rounds},
           {"triangles", rep.surface.triangles}, {"tets", rep.volume.tets},
@@ -84,6 +103,7 @@ int main(int argc, char** argv) {
           {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib}};
+      if (junctions) j["junction_error"] = bench::junction_json(je);
       std::cout << j.dump() << '\n';
 
       // The peer, in a child process (its own memory, its own failures).
@@ -98,9 +118,17 @@ int main(int argc, char** argv) {
         const auto pj = nlohmann::json::parse(line);
         std::printf("%-16s", ("  CGAL " + std::to_string(peer_facet).substr(0, 4)).c_str());
         for (int k = 0; k < 6; ++k) std::printf(" %9s", "");
-        std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f\n", pj["total_s"].get<double>(), "-",
+        bench::JunctionError pje;
+        if (pj.contains("junction_error")) {
+          pje.edges = pj["junction_error"]["edges"].get<size_t>();
+          pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
+          pje.mean = pj["junction_error"]["mean"].get<double>();
+          pje.max = pj["junction_error"]["max"].get<double>();
+        }
+        std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %11s\n", pj["total_s"].get<double>(), "-",
                     pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
-                    pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>());
+                    pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
+                    junction_cell(pj.contains("junction_error"), pje).c_str());
         std::cout << pj.dump() << '\n';
       } catch (const std::exception& e) {
         std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());

@@ -2,10 +2,17 @@
 // Helpers shared by the benchmarks.
 #include <sys/resource.h>
 
+#include <algorithm>
+#include <array>
+#include <optional>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "io/read_volume.h"
 #include "io/synth_volumes.h"
+#include "mesh/quality.h"
 
 namespace cpmesh::bench {
 
@@ -28,6 +35,49 @@ inline io::LabelVolume load_volume_spec(const std::string& spec) {
     return v;
   }
   return io::read_label_volume(spec);
+}
+
+// The analytic junctions of a synthetic volume spec (the wedge ball has some), or nothing for files.
+inline std::optional<io::Junctions> synth_junctions(const std::string& spec) {
+  const auto colon = spec.find(':');
+  if (colon == std::string::npos || spec.find('.') != std::string::npos) return std::nullopt;
+  io::SynthOptions o;
+  o.shape = io::parse_synth_shape(spec.substr(0, colon));
+  o.size = std::stoi(spec.substr(colon + 1));
+  if (o.shape != io::SynthShape::wedge_ball) return std::nullopt;
+  return io::make_synth_volume(o).junctions;
+}
+
+// Junction error of interface meshes (any mesher's): the mesh's triple-curve edges (mesh::triple_curve_edges), the
+// distance of their midpoints to the analytic curves of the same three materials, in voxels.
+struct JunctionError {
+  size_t edges = 0;
+  size_t spurious = 0;  // triple edges between three materials that have no curve in common
+  double mean = 0, max = 0;
+};
+inline JunctionError junction_error(const io::Junctions& j, const std::vector<std::array<double, 3>>& vertices,
+                                    const std::vector<std::array<uint32_t, 3>>& triangles,
+                                    const std::vector<std::array<uint16_t, 2>>& pairs, double voxel) {
+  JunctionError e;
+  for (const auto& c : mesh::triple_curve_edges(triangles, pairs)) {
+    const auto& a = vertices[c.a];
+    const auto& b = vertices[c.b];
+    const double d = io::distance_to_triple_curve(
+        j, c.materials, {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])}) / voxel;
+    if (!(d < 1e300)) {  // three materials with no analytic curve between them
+      ++e.spurious;
+      continue;
+    }
+    e.mean += d;
+    e.max = std::max(e.max, d);
+    ++e.edges;
+  }
+  if (e.edges) e.mean /= double(e.edges);
+  return e;
+}
+
+inline nlohmann::json junction_json(const JunctionError& e) {
+  return {{"edges", e.edges}, {"spurious", e.spurious}, {"mean", e.mean}, {"max", e.max}};
 }
 
 }  // namespace cpmesh::bench

@@ -2,12 +2,14 @@
 // users mesh segmentations with today. Built only when CGAL is installed (libcgal-dev; tools/install-deps.sh does not
 // install it). Reads the same volumes as cpmesh-bench-pipeline (shape:size or a file, through cpmesh's readers),
 // meshes with facet size and cell size in voxels, and prints one JSON line: time, surface triangles (facets of the
-// complex), radius ratio mean/min, min dihedral of the cells, vertex count.
+// complex), radius ratio mean/min, min dihedral of the cells, vertex count, and on the wedge ball the junction error
+// (bench_util.h junction_error, the same measure as cpmesh's row).
 //   cpmesh-peer-cgal VOLUME [--facet-size 1.5] [--facet-distance 0.5] [--cell-size 3]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <string>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -64,15 +66,27 @@ int main(int argc, char** argv) {
 
     double rr_sum = 0, rr_min = 1;
     size_t facets = 0;
+    // The surface as an indexed mesh with each facet's material pair, for the junction error.
+    std::map<Tr::Vertex_handle, uint32_t> index;
+    std::vector<std::array<double, 3>> vertices;
+    std::vector<std::array<uint32_t, 3>> triangles;
+    std::vector<std::array<uint16_t, 2>> pairs;
     for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
       const auto& cell = f->first;
       const int i = f->second;
       glm::dvec3 v[3];
+      std::array<uint32_t, 3> tri{};
       for (int k = 0, n = 0; k < 4; ++k) {
         if (k == i) continue;
         const auto& q = cell->vertex(k)->point();
-        v[n++] = glm::dvec3(CGAL::to_double(q.x()), CGAL::to_double(q.y()), CGAL::to_double(q.z()));
+        v[n] = glm::dvec3(CGAL::to_double(q.x()), CGAL::to_double(q.y()), CGAL::to_double(q.z()));
+        const auto [it, added] = index.emplace(cell->vertex(k), uint32_t(vertices.size()));
+        if (added) vertices.push_back({v[n].x, v[n].y, v[n].z});
+        tri[size_t(n++)] = it->second;
       }
+      triangles.push_back(tri);
+      const auto mirror = c3t3.triangulation().mirror_facet(*f);
+      pairs.push_back({uint16_t(c3t3.subdomain_index(cell)), uint16_t(c3t3.subdomain_index(mirror.first))});
       const double rr = cpmesh::mesh::radius_ratio(v[0], v[1], v[2]);
       rr_sum += rr;
       rr_min = std::min(rr_min, rr);
@@ -89,12 +103,16 @@ int main(int argc, char** argv) {
       for (double a : cpmesh::mesh::dihedral_angles(v[0], v[1], v[2], v[3])) dihedral_min = std::min(dihedral_min, a * 180 / M_PI);
       ++cells;
     }
+    std::string junction;
+    if (const auto j = cpmesh::bench::synth_junctions(spec))
+      junction = ",\"junction_error\":" +
+                 cpmesh::bench::junction_json(cpmesh::bench::junction_error(*j, vertices, triangles, pairs, voxel)).dump();
     std::printf("{\"benchmark\":\"pipeline_peer\",\"peer\":\"CGAL Mesh_3 %s\",\"volume\":\"%s\",\"facet_size_voxels\":%g,"
                 "\"total_s\":%.4f,\"triangles\":%zu,\"tets\":%zu,\"vertices\":%zu,\"mean_radius_ratio\":%.4f,"
-                "\"min_radius_ratio\":%.4f,\"min_dihedral_deg\":%.3f}\n",
+                "\"min_radius_ratio\":%.4f,\"min_dihedral_deg\":%.3f%s}\n",
                 CGAL_VERSION_STR, spec.c_str(), facet_size, seconds, facets, cells,
                 size_t(c3t3.triangulation().number_of_vertices()), facets ? rr_sum / double(facets) : 0.0, rr_min,
-                dihedral_min);
+                dihedral_min, junction.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "cpmesh-peer-cgal: error: " << e.what() << '\n';
