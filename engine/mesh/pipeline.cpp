@@ -65,7 +65,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   stage_done("seeding");
 
   begin("advection");
-  const auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population);
+  auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population);
+  rep.protected_particles = particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);
   stage_done("advection");
   const auto& P = relaxed.population;
   rep.particles = P.particles.size();

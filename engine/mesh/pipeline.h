@@ -11,7 +11,7 @@
 //   cpmesh::io::write_vtu("volume.vtu", result.volume);
 //
 // Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
-// "advection" (with add/delete rounds) -> "delaunay and extraction" (TetGen Delaunay of the particles, tet labels,
+// "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of the particles, tet labels,
 // repair, interface triangles) -> "quality" -> "volume mesh" (TetGen -pqAY bounded by the interface triangles).
 #include <array>
 #include <functional>
@@ -33,6 +33,8 @@ struct MeshOptions {
   particles::PopulationOptions population;
   QualityOptions volume;
   bool only_surfaces = false;  // skip the volume mesh
+  double junction_protection = 0.55;  // interface particles closer than this x h to a bounding triple curve or
+                                      // quadruple point are left out of the mesh (particles::protect_junctions)
   int repair_rounds = 4;       // rounds of curve points added where wrong faces are left (extract.h, "Repair")
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
@@ -58,6 +60,7 @@ struct MaterialReport {
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
   size_t particles = 0, rounds = 0;
+  size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
   int iterations = 0;
   bool settled = false, steady = false;
   size_t delaunay_tets = 0;

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <numeric>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "ref/cp_lookup.h"
 
 namespace cpmesh::particles {
@@ -364,6 +367,82 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     if (on_round) on_round(rep);
   }
   return result;
+}
+
+size_t protect_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
+                         Population& population, double rho) {
+  if (rho <= 0) return 0;
+  const size_t n = population.particles.size();
+  // The curves and quadruple points bounding each interface (their material sets include the interface's).
+  std::vector<std::vector<uint32_t>> curves_of(E.features.size());
+  std::vector<std::vector<glm::dvec3>> points_of(E.features.size());
+  for (uint32_t f = 0; f < E.features.size(); ++f) {
+    if (E.features[f].kind != fields::FeatureKind::interface) continue;
+    const uint64_t mine = E.features[f].material_mask();
+    for (uint32_t c = 0; c < E.features.size(); ++c)
+      if (E.features[c].kind == fields::FeatureKind::triple_curve && (E.features[c].material_mask() & mine) == mine)
+        curves_of[f].push_back(c);
+    for (const auto& q : E.quadruple_points)
+      if ((E.features[q.feature].material_mask() & mine) == mine) points_of[f].push_back(q.position);
+  }
+  // Curve particles in a hash grid of cells as large as the largest h among them: a point within rho h of a curve
+  // lies within h of one of its particles (they are spaced about h apart), so 27 cells hold every candidate.
+  float cell = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (E.features[population.features[i]].kind == fields::FeatureKind::triple_curve)
+      cell = std::max(cell, population.particles[i].w);
+  if (cell <= 0) return 0;
+  auto key = [](const glm::ivec3& c) {
+    return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) | uint64_t(uint32_t(c.z) & 0x1fffff);
+  };
+  std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
+  for (size_t i = 0; i < n; ++i)
+    if (E.features[population.features[i]].kind == fields::FeatureKind::triple_curve)
+      grid[key(glm::ivec3(glm::floor(glm::vec3(population.particles[i]) / cell)))].push_back(uint32_t(i));
+
+  std::vector<uint8_t> drop(n, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const uint32_t f = population.features[i];
+      if (E.features[f].kind != fields::FeatureKind::interface) continue;
+      const glm::dvec3 p(glm::vec3(population.particles[i]));
+      const double h = double(population.particles[i].w), reach = rho * h;
+      bool near = false;
+      for (const glm::dvec3& q : points_of[f]) near = near || glm::length(q - p) < reach;
+      for (uint32_t c : curves_of[f]) {
+        if (near) break;
+        // The nearest particle of curve c starts the projection (and picks the right piece of a curve in pieces).
+        const glm::ivec3 base(glm::floor(glm::vec3(p) / cell));
+        double best = std::max(double(cell), h) * 1.5;
+        int nearest = -1;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const auto it = grid.find(key(base + glm::ivec3(dx, dy, dz)));
+              if (it == grid.end()) continue;
+              for (uint32_t j : it->second) {
+                if (population.features[j] != c) continue;
+                const double d = glm::length(glm::dvec3(glm::vec3(population.particles[j])) - p);
+                if (d < best) best = d, nearest = int(j);
+              }
+            }
+        if (nearest < 0 || best > reach + h) continue;
+        const glm::dvec3 start(glm::vec3(population.particles[size_t(nearest)]));
+        glm::dvec3 foot;
+        if (fields::project_to_feature(fields, E.features[c], p, foot, 30, 3, &start)) near = glm::length(foot - p) < reach;
+      }
+      drop[i] = near;
+    }
+  });
+  Population kept;
+  for (size_t i = 0; i < n; ++i) {
+    if (drop[i]) continue;
+    kept.particles.push_back(population.particles[i]);
+    kept.features.push_back(population.features[i]);
+  }
+  const size_t removed = n - kept.particles.size();
+  population = std::move(kept);
+  return removed;
 }
 
 }  // namespace cpmesh::particles

@@ -157,4 +157,15 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& embedd
                   const AdvectionOptions& advection, const PopulationOptions& options,
                   const std::function<void(const RoundReport&)>& on_round = {});
 
+// Junction protection, for meshing: removes every interface particle closer than rho x its h to a triple curve or
+// quadruple point that bounds its interface (curves: the closest point on the curve of the smooth fields, by the
+// embedding's Newton projection from the nearest particle of that curve; quadruple points: their positions). The particle system keeps interface particles about h from curve particles, but between two
+// curve particles nothing stops them from creeping up to the curve itself (they feel only curve particles, not the
+// interfaces across the curve), and a particle a fraction of h from a curve makes the restricted Delaunay
+// triangles there slivers or gives triangles that span the curve (wrong faces, non-manifold interfaces). A band
+// free of interface particles around every curve is the protecting-ball condition of Cheng, Dey and Ramos
+// (Delaunay refinement for piecewise smooth complexes) in its simplest form. Returns the count removed.
+size_t protect_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
+                         Population& population, double rho);
+
 }  // namespace cpmesh::particles

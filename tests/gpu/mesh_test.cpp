@@ -131,9 +131,13 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
                         << rep.volume.max_dihedral_deg);
   CHECK(rep.interfaces.size() == 9);
   CHECK(rep.materials_closed == rep.materials.size());
-  for (const auto& ir : rep.interfaces) CHECK(ir.check.nonmanifold_edges == 0);
-  CHECK(rep.wrong_faces < rep.wrong_faces_before_repair);
-  CHECK(rep.surface.mean_radius_ratio > 0.8);
+  // With the junction protection every interface is an oriented 2-manifold bounded by triple curves and no triangle
+  // degenerates (measured: 9 of 9, min radius ratio 0.46, no wrong face left, 39 particles left out).
+  for (const auto& ir : rep.interfaces) CHECK(ir.check.manifold());
+  CHECK(rep.protected_particles > 0);
+  CHECK(rep.wrong_faces == 0);
+  CHECK(rep.surface.min_radius_ratio > 0.2);
+  CHECK(rep.surface.mean_radius_ratio > 0.88);
   // Conforming: triangles of different interfaces meet at curve or quadruple-point vertices.
   std::vector<std::set<std::array<uint16_t, 2>>> pairs_at(r.surfaces.vertices.size());
   for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)

@@ -66,6 +66,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(0.0, 18.0))
       ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
+  sub->add_option("--junction-protection", m.junction_protection,
+                  "Leave out interface particles closer than this x h to a triple curve or quadruple point of their "
+                  "interface (0: off); keeps junction triangles from degenerating")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
   sub->add_option("--preview", o->preview,
                   "Also render the interfaces to this PNG (1200 x 600: an oblique view and the same view cut away at "
@@ -136,6 +141,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["surface"] = triangle_json(rep.surface);
             j["surface_at_junctions"] = triangle_json(rep.junction_triangles);
             j["surface_away_from_junctions"] = triangle_json(rep.other_triangles);
+            j["protected_particles"] = rep.protected_particles;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
                            {"added_curve_points", rep.added_curve_points}};
@@ -176,8 +182,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("  triangles at junctions: %zu, mean radius ratio %.3f; elsewhere: %zu, %.3f\n",
                         rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
                         rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
-            std::printf("  repair: %zu wrong faces, %zu tets relabelled, %zu curve points added, %zu left\n",
-                        rep.wrong_faces_before_repair, rep.relabelled_tets, rep.added_curve_points, rep.wrong_faces);
+            std::printf("  junctions: %zu interface particles left out (protection); repair: %zu wrong faces, %zu tets "
+                        "relabelled, %zu curve points added, %zu left\n",
+                        rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
+                        rep.added_curve_points, rep.wrong_faces);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials closed\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
                         rep.interfaces.size(), rep.materials_closed, rep.materials.size());

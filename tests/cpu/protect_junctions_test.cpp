@@ -1,0 +1,56 @@
+// particles::protect_junctions: interface particles within rho x h of a bounding triple curve or quadruple point are
+// removed, others (and every curve particle) kept.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "fields/fields_stage.h"
+#include "fields_volumes.h"
+#include "particles/population.h"
+
+using namespace cpmesh;
+using fields::FeatureKind;
+
+TEST_CASE("protect_junctions: the band around the wedge ball's axis curve") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 64);
+  const auto F = fields::build_fields(wb.grid, wb.labels.data());
+  const auto& E = F.embedding;
+  // Materials are label indices here (labels 0..4). The 1|2 wedge plane is the half-plane at angle 0.3 + 120 deg
+  // through the z axis; the axis itself is the (1,2,3) curve from the north pole down to the inner ball.
+  const int plane = E.feature_index(FeatureKind::interface, {1, 2, 0xffff, 0xffff});
+  const int axis = E.feature_index(FeatureKind::triple_curve, {1, 2, 3, 0xffff});
+  const int other = E.feature_index(FeatureKind::interface, {0, 1, 0xffff, 0xffff});
+  REQUIRE(plane >= 0);
+  REQUIRE(axis >= 0);
+  REQUIRE(other >= 0);
+  const double R = 25.0, theta = 0.3 + 2 * std::numbers::pi / 3;
+  const glm::dvec3 dir(std::cos(theta), std::sin(theta), 0.0);
+  const float h = 2.0f;
+  particles::Population P;
+  auto add = [&](const glm::dvec3& p, int feature) {
+    P.particles.push_back(glm::vec4(glm::vec3(p), h));
+    P.features.push_back(uint32_t(feature));
+  };
+  // Curve particles along the axis, 2 voxels apart, from 0.45 R to 0.9 R above the centre.
+  for (double z = 0.45 * R; z <= 0.9 * R; z += 2.0) add(wb.centre + glm::dvec3(0, 0, z), axis);
+  const size_t curve_particles = P.particles.size();
+  const glm::dvec3 at = wb.centre + glm::dvec3(0, 0, 0.7 * R + 1.0);  // between two curve particles
+  add(at + 0.5 * dir, plane);   // 0.5 voxel from the axis: inside the band of 0.55 x 2
+  add(at + 0.9 * dir, plane);   // 0.9: inside
+  add(at + 1.5 * dir, plane);   // 1.5: outside
+  add(at + 6.0 * dir, plane);   // far
+  add(wb.centre + glm::dvec3(0, 0, R - 0.6) + 0.3 * dir, plane);  // 0.67 from the north pole (a quadruple point)
+  // An interface the axis does not bound ((0,1): the outer sphere) is not protected by it: a particle there, put
+  // next to the axis curve's particles for the test, stays.
+  add(at + 0.5 * dir, other);
+  const size_t removed = particles::protect_junctions(F.fields, E, P, 0.55);
+  CHECK(removed == 3);
+  REQUIRE(P.particles.size() == curve_particles + 3);
+  for (size_t i = 0; i < curve_particles; ++i) CHECK(P.features[i] == uint32_t(axis));
+  CHECK(glm::length(glm::dvec3(glm::vec3(P.particles[curve_particles])) - at) == doctest::Approx(1.5).epsilon(1e-5));
+  CHECK(glm::length(glm::dvec3(glm::vec3(P.particles[curve_particles + 1])) - at) == doctest::Approx(6.0).epsilon(1e-5));
+  CHECK(P.features[curve_particles + 2] == uint32_t(other));
+  // rho = 0: nothing is removed.
+  CHECK(particles::protect_junctions(F.fields, E, P, 0.0) == 0);
+}
