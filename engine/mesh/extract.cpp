@@ -162,7 +162,8 @@ InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std:
   return out;
 }
 
-std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& material) {
+std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                                const std::vector<uint16_t>& material) {
   std::vector<uint32_t> parent(T.tets.size());
   std::iota(parent.begin(), parent.end(), 0u);
   auto find = [&](uint32_t x) {
@@ -173,9 +174,30 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
     const uint32_t nb = adj.neighbour[tc];
     if (nb != Adjacency::kHull && material[tc / 4] == material[nb / 4]) parent[find(tc / 4)] = find(nb / 4);
   }
+  // Per component, its tet with the largest inscribed sphere: the volume mesher takes the centroid as the region's
+  // seed point, which must stay inside the region when the surface is smoothed afterwards.
+  std::vector<double> best(T.tets.size(), -1.0);
+  std::vector<uint32_t> rep_of(T.tets.size(), ~0u);
+  for (uint32_t t = 0; t < T.tets.size(); ++t) {
+    const auto& k = T.tets[t];
+    const glm::dvec3 &a = T.points[k[0]], &b = T.points[k[1]], &c = T.points[k[2]], &d = T.points[k[3]];
+    const double volume = std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6.0;
+    const double area = 0.5 * (glm::length(glm::cross(b - a, c - a)) + glm::length(glm::cross(b - a, d - a)) +
+                               glm::length(glm::cross(c - a, d - a)) + glm::length(glm::cross(c - b, d - b)));
+    const double inradius = area > 0 ? 3.0 * volume / area : 0.0;
+    const uint32_t root = find(t);
+    if (inradius > best[root]) best[root] = inradius, rep_of[root] = t;
+  }
+  // Components open to the outside (a hull face with the same material beyond it, so no interface triangle there) are
+  // outside every closed interface: the volume mesher drops them as
+  // exterior, and a seed there (a flat hull tet, moved by the smoothing) could land inside a region and relabel it.
+  std::vector<uint8_t> unbounded(T.tets.size(), 0);
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc)
+    if (adj.neighbour[tc] == Adjacency::kHull && material_across(adj, hull, material, tc) == material[tc / 4])
+      unbounded[find(tc / 4)] = 1;
   std::vector<uint32_t> reps;
   for (uint32_t t = 0; t < T.tets.size(); ++t)
-    if (find(t) == t) reps.push_back(t);
+    if (find(t) == t && !unbounded[t]) reps.push_back(rep_of[t]);
   return reps;
 }
 

@@ -59,7 +59,9 @@ std::vector<uint32_t> wrong_faces(const Tets& tets, const Adjacency& adj, const 
 InterfaceMesh extract_interfaces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                  const std::vector<uint16_t>& material, const std::vector<uint8_t>& vertex_kind);
 
-// One tet per connected set of same-material tets (through shared faces).
-std::vector<uint32_t> component_representatives(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& material);
+// One tet per connected set of same-material tets (through shared faces) that is enclosed by interfaces: the
+// one with the largest inscribed sphere (its centroid seeds the region in the volume mesh).
+std::vector<uint32_t> component_representatives(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                                const std::vector<uint16_t>& material);
 
 }  // namespace cpmesh::mesh

@@ -8,6 +8,7 @@
 
 #include "fields/volume_grid.h"
 #include "mesh/extract.h"
+#include "mesh/smooth.h"
 #include "ref/cp_lookup.h"
 
 namespace cpmesh::mesh {
@@ -79,9 +80,11 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   std::vector<uint8_t> kind;
   std::vector<uint64_t> vertex_materials;
   std::vector<float> vertex_h;
+  std::vector<uint32_t> vertex_feature;
   auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
     const auto& feat = F.embedding.features[f];
     points.push_back(p);
+    vertex_feature.push_back(f);
     kind.push_back(uint8_t(feat.kind));
     vertex_materials.push_back(feat.material_mask());
     vertex_h.push_back(h);
@@ -132,8 +135,14 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     if (added == 0) break;
   }
   rep.delaunay_tets = T.tets.size();
-  const InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
+  InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
   stage_done("delaunay and extraction");
+
+  begin("smoothing");
+  const SmoothReport smoothed = smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing);
+  rep.smoothing_moves = smoothed.moves;
+  T.points = I.vertices;  // the volume mesh's region points come from these tets
+  stage_done("smoothing");
 
   begin("quality");
   std::vector<uint8_t> on_curve(kind.size());
@@ -184,7 +193,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   if (!options.only_surfaces) {
     begin("volume mesh");
     std::vector<Region> regions;
-    for (uint32_t t : component_representatives(T, adj, material)) {
+    for (uint32_t t : component_representatives(T, adj, hull, material)) {
       glm::dvec3 c(0.0);
       for (uint32_t v : T.tets[t]) c += T.points[v];
       regions.push_back({c / 4.0, int(material[t]) + 1});

@@ -12,7 +12,7 @@
 //
 // Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
 // "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of the particles, tet labels,
-// repair, interface triangles) -> "quality" -> "volume mesh" (TetGen -pqAY bounded by the interface triangles).
+// repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh" (TetGen -pqAY bounded by the interface triangles).
 #include <array>
 #include <functional>
 #include <string>
@@ -22,6 +22,7 @@
 #include "io/mesh.h"
 #include "io/volume.h"
 #include "mesh/quality.h"
+#include "mesh/smooth.h"
 #include "mesh/tetgen.h"
 #include "particles/population.h"
 
@@ -35,6 +36,7 @@ struct MeshOptions {
   bool only_surfaces = false;  // skip the volume mesh
   double junction_protection = 0.55;  // interface particles closer than this x h to a bounding triple curve or
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
+  SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
   int repair_rounds = 4;       // rounds of curve points added where wrong faces are left (extract.h, "Repair")
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
@@ -66,6 +68,7 @@ struct MeshReport {
   size_t delaunay_tets = 0;
   size_t wrong_faces_before_repair = 0, relabelled_tets = 0, wrong_faces = 0;  // extract.h "Repair"
   size_t added_curve_points = 0;
+  size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
   TriangleStats surface;  // all interface triangles
   TriangleStats junction_triangles, other_triangles;  // with a triple-curve or quadruple-point vertex; without
   std::vector<InterfaceReport> interfaces;

@@ -132,12 +132,14 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(rep.interfaces.size() == 9);
   CHECK(rep.materials_closed == rep.materials.size());
   // With the junction protection every interface is an oriented 2-manifold bounded by triple curves and no triangle
-  // degenerates (measured: 9 of 9, min radius ratio 0.46, no wrong face left, 39 particles left out).
+  // degenerates; the smoothing lifts the mean (measured: 9 of 9, no wrong face left, radius ratio mean 0.940,
+  // min 0.58; 0.908 and 0.46 before smoothing).
   for (const auto& ir : rep.interfaces) CHECK(ir.check.manifold());
   CHECK(rep.protected_particles > 0);
   CHECK(rep.wrong_faces == 0);
-  CHECK(rep.surface.min_radius_ratio > 0.2);
-  CHECK(rep.surface.mean_radius_ratio > 0.88);
+  CHECK(rep.smoothing_moves > 0);
+  CHECK(rep.surface.min_radius_ratio > 0.3);
+  CHECK(rep.surface.mean_radius_ratio > 0.92);
   // Conforming: triangles of different interfaces meet at curve or quadruple-point vertices.
   std::vector<std::set<std::array<uint16_t, 2>>> pairs_at(r.surfaces.vertices.size());
   for (size_t i = 0; i < r.surfaces.triangles.size(); ++i)
