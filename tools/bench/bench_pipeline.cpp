@@ -58,9 +58,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, false});
-    const char* stages[] = {"fields", "seeding", "advection", "delaunay and extraction", "quality", "volume mesh"};
+    const char* stages[] = {"fields", "seeding", "advection", "delaunay and extraction", "smoothing", "quality",
+                            "volume mesh"};
     std::printf("Pipeline on %s\n%-16s", ctx.info().name.c_str(), "volume");
-    for (const char* s : {"fields", "seeding", "advection", "delaunay", "quality", "volume"}) std::printf(" %9s", s);
+    for (const char* s : {"fields", "seeding", "advection", "delaunay", "smoothing", "quality", "volume"})
+      std::printf(" %9s", s);
     std::printf(" %8s %9s %9s %9s %6s %6s %8s %11s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
                 "rr min", "dihedral", "junction", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
@@ -117,7 +119,7 @@ int main(int argc, char** argv) {
       try {
         const auto pj = nlohmann::json::parse(line);
         std::printf("%-16s", ("  CGAL " + std::to_string(peer_facet).substr(0, 4)).c_str());
-        for (int k = 0; k < 6; ++k) std::printf(" %9s", "");
+        for (int k = 0; k < 7; ++k) std::printf(" %9s", "");
         bench::JunctionError pje;
         if (pj.contains("junction_error")) {
           pje.edges = pj["junction_error"]["edges"].get<size_t>();

@@ -71,6 +71,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "interface (0: off); keeps junction triangles from degenerating")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  sub->add_option("--smoothing-rounds", m.smoothing.rounds,
+                  "Rounds of interface smoothing after extraction (0: off): vertices move towards their neighbours' "
+                  "centroid on their surface or curve, never making a triangle worse")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
   sub->add_option("--preview", o->preview,
                   "Also render the interfaces to this PNG (1200 x 600: an oblique view and the same view cut away at "
@@ -142,6 +147,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["surface_at_junctions"] = triangle_json(rep.junction_triangles);
             j["surface_away_from_junctions"] = triangle_json(rep.other_triangles);
             j["protected_particles"] = rep.protected_particles;
+            j["smoothing_moves"] = rep.smoothing_moves;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
                            {"added_curve_points", rep.added_curve_points}};
