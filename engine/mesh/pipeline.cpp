@@ -201,7 +201,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     std::vector<int> markers;
     for (const auto& pr : I.pair) markers.push_back(int(pr[0]) * 1000 + int(pr[1]) + 1);
     try {
-      const Tets V = constrained_quality(I.vertices, I.triangles, markers, regions, options.volume);
+      Tets V = constrained_quality(I.vertices, I.triangles, markers, regions, options.volume);
+      // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
+      rep.tet_improvement = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
+                                         options.volume.max_radius_edge);
       auto& out = result.volume;
       for (const auto& p : V.points) {
         const glm::dvec3 q = grid.to_physical(p);

@@ -1,6 +1,8 @@
 #include "mesh/smooth.h"
 
 #include <algorithm>
+#include <cmath>
+#include <random>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -106,6 +108,91 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
     ++report.rounds;
     if (moves == 0) break;
   }
+  return report;
+}
+
+TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
+                              size_t fixed, double target_deg, double max_radius_edge, int passes) {
+  TetImproveReport report;
+  const double target = target_deg * M_PI / 180;
+  auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
+    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
+  };
+  auto min_angle = [&](const std::array<uint32_t, 4>& t) {
+    const auto a = dihedral_angles(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+    return *std::min_element(a.begin(), a.end());
+  };
+  std::vector<std::vector<uint32_t>> around(P.size());
+  std::vector<int8_t> sign(tets.size());
+  double worst = M_PI;
+  for (uint32_t t = 0; t < tets.size(); ++t) {
+    for (uint32_t v : tets[t]) around[v].push_back(t);
+    sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
+    worst = std::min(worst, min_angle(tets[t]));
+  }
+  report.min_dihedral_before = report.min_dihedral_after = worst * 180 / M_PI;
+  // The smallest dihedral angle of v's tets with v at its current position, or -1 if one of them is inverted or
+  // over the radius-edge bound `limit`.
+  auto quality_at = [&](uint32_t v, double limit) {
+    double q = M_PI;
+    for (uint32_t t : around[v]) {
+      const auto& k = tets[t];
+      if (signed_volume(k) * sign[t] <= 0 || radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit) return -1.0;
+      q = std::min(q, min_angle(k));
+    }
+    return q;
+  };
+  // The largest radius-edge ratio among v's tets.
+  auto radius_edge_at = [&](uint32_t v) {
+    double r = 0;
+    for (uint32_t t : around[v]) {
+      const auto& k = tets[t];
+      r = std::max(r, radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]));
+    }
+    return r;
+  };
+  std::mt19937 rng(12345);
+  std::normal_distribution<double> n01;
+  for (int pass = 0; pass < passes; ++pass) {
+    size_t moves = 0;
+    for (uint32_t t = 0; t < tets.size(); ++t) {
+      if (min_angle(tets[t]) >= target) continue;
+      for (uint32_t v : tets[t]) {
+        if (v < fixed) continue;
+        const glm::dvec3 start = P[v];
+        const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
+        double best = quality_at(v, limit);
+        glm::dvec3 best_at = start, centroid(0.0);
+        double edge = 0;
+        size_t count = 0;
+        for (uint32_t u : around[v])
+          for (uint32_t w : tets[u])
+            if (w != v) {
+              centroid += P[w];
+              edge += glm::length(P[w] - start);
+              ++count;
+            }
+        if (count == 0) continue;
+        centroid /= double(count);
+        edge /= double(count);
+        auto consider = [&](const glm::dvec3& at) {
+          P[v] = at;
+          const double q = quality_at(v, limit);
+          if (q > best) best = q, best_at = at;
+        };
+        consider(centroid);
+        for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
+          for (int k = 0; k < 8; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
+        P[v] = best_at;
+        moves += best_at != start;
+      }
+    }
+    report.moves += moves;
+    if (moves == 0) break;
+  }
+  worst = M_PI;
+  for (const auto& t : tets) worst = std::min(worst, min_angle(t));
+  report.min_dihedral_after = worst * 180 / M_PI;
   return report;
 }
 

@@ -56,3 +56,30 @@ TEST_CASE("smooth_interfaces: random points on a sphere become a better mesh on 
   CHECK(mesh::smooth_interfaces(F.fields, E, std::vector<uint32_t>(points.size(), 0), I, off).moves == 0);
   CHECK(I.vertices == kept);
 }
+
+TEST_CASE("improve_tets: a free vertex near a face of a cube moves back inside, fixed vertices stay") {
+  // A unit cube, each face split in two triangles, each triangle joined to one free vertex (index 8) put almost on
+  // the bottom face: the two bottom tets are slivers.
+  std::vector<glm::dvec3> P;
+  for (int c = 0; c < 8; ++c) P.push_back(glm::dvec3(c & 1, (c >> 1) & 1, (c >> 2) & 1));
+  P.push_back(glm::dvec3(0.45, 0.55, 0.02));
+  const int faces[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
+  std::vector<std::array<uint32_t, 4>> tets;
+  for (const auto& f : faces) {
+    tets.push_back({uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2]), 8});
+    tets.push_back({uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3]), 8});
+  }
+  const auto corners = std::vector<glm::dvec3>(P.begin(), P.begin() + 8);
+  const auto r = mesh::improve_tets(P, tets, 8, 12.0);
+  MESSAGE("min dihedral " << r.min_dihedral_before << " -> " << r.min_dihedral_after << " deg, vertex at " << P[8].x
+                          << " " << P[8].y << " " << P[8].z);
+  CHECK(r.min_dihedral_before < 5);
+  CHECK(r.min_dihedral_after > 30);
+  CHECK(r.moves > 0);
+  CHECK(std::vector<glm::dvec3>(P.begin(), P.begin() + 8) == corners);
+  CHECK(mesh::tet_stats(P, tets).min_dihedral_deg == doctest::Approx(r.min_dihedral_after));
+  // Nothing below the target: nothing moves.
+  const auto settled = P;
+  CHECK(mesh::improve_tets(P, tets, 8, 1.0).moves == 0);
+  CHECK(P == settled);
+}
