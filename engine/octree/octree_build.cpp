@@ -14,10 +14,12 @@ OctreeBuild::OctreeBuild(gpu::Context& ctx)
       children_(ctx, shaders::octree_children) {}
 
 void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, uint32_t n, uint32_t leaf_size,
-                         const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info) const {
+                         const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
+                         uint32_t max_level) const {
   if (n > keys.size() || nodes.size() < node_capacity(n, leaf_size) || level_info.size() < 22)
     throw gpu::Error("octree build: buffers too small for " + std::to_string(n) + " particles");
   if (leaf_size == 0) throw gpu::Error("octree build: leaf size must be at least 1");
+  if (max_level < 1 || max_level > 21) throw gpu::Error("octree build: max_level must be in 1..21");
   // Root (0, n) and level 0 = (node 0, 1 node); the other levels start empty.
   std::vector<glm::uvec2> info(22, glm::uvec2(0));
   info[0] = glm::uvec2(0, 1);
@@ -27,7 +29,7 @@ void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, 
       .barrier();
   gpu::Buffer<uint32_t> flags(*ctx_, n, "octree flags"), starts(*ctx_, n, "octree child starts"),
       counts(*ctx_, 22, "octree level counts");
-  for (uint32_t level = 0; level < 21; ++level) {
+  for (uint32_t level = 0; level < max_level; ++level) {
     const struct { uint32_t n, level, leaf_size; } split_push{n, level, leaf_size};
     seq.dispatch(split_, {keys, nodes, level_info, flags}, split_push, n).barrier();
     compact_.record_indices(seq, flags, n, starts, counts, level + 1);
@@ -44,10 +46,10 @@ void OctreeMoments::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& no
                            const gpu::Buffer<glm::uvec2>& level_info, const gpu::Buffer<uint32_t>& order,
                            const gpu::Buffer<glm::vec4>& particles, const gpu::Buffer<uint32_t>& features,
                            const gpu::Buffer<uint64_t>& feature_masks, const NodeMoments& moments,
-                           uint32_t n) const {
+                           uint32_t n, uint32_t max_level) const {
   if (moments.lo.size() < nodes.size()) throw gpu::Error("octree moments: the moment buffers need one entry per node");
   // A level has at most n nodes (disjoint particle ranges), and the root level one.
-  for (int level = 21; level >= 0; --level) {
+  for (int level = int(std::min<uint32_t>(max_level, 21)); level >= 0; --level) {
     const struct { uint32_t level; } push{uint32_t(level)};
     seq.dispatch(kernel_,
                  {nodes, level_info, order, particles, moments.lo, moments.hi, moments.com, moments.and_mask, features,

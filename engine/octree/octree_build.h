@@ -16,9 +16,12 @@ class OctreeBuild {
   // level.
   static size_t node_capacity(uint32_t n, uint32_t leaf_size) { return n + 21 * (size_t(n) / (leaf_size + 1) + 1) + 1; }
   // nodes: node_capacity() entries, uvec4 (start, count, first_child, level << 8 | child_count);
-  // level_info: 22 entries (first node, node count) per level.
+  // level_info: 22 entries (first node, node count) per level. max_level (1..21): nodes of that level are leaves
+  // whatever their count, and the build records only max_level levels (5 dispatches each): a caller that knows how
+  // close its particles can be stops at cells a fraction of that size instead of at the keys' 21 bits.
   void record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& sorted_keys, uint32_t n, uint32_t leaf_size,
-              const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info) const;
+              const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
+              uint32_t max_level = 21) const;
 
  private:
   gpu::Context* ctx_;
@@ -46,7 +49,7 @@ class OctreeMoments {
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
               const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-              const NodeMoments& moments, uint32_t n) const;
+              const NodeMoments& moments, uint32_t n, uint32_t max_level = 21) const;
 
  private:
   gpu::Kernel kernel_;

@@ -1,6 +1,8 @@
 #include "particles/particle_system.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "cpmesh/shaders.h"
 
@@ -55,12 +57,24 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       energy_(ctx, n_, "particle energy"),
       readback_(ctx, 1, "total energy", gpu::MemoryUse::readback) {
   if (features.size() != particles.size()) throw std::invalid_argument("one feature per particle");
+  // Octree depth: particles keep about h apart, so cells smaller than a quarter of the smallest h (of the sizing field
+  // and of these particles) split nothing useful; stopping there saves most of the 21 levels' dispatches.
+  float h_min = std::numeric_limits<float>::infinity();
+  for (const auto& f : E.fine)
+    if (f.w > 0) h_min = std::min(h_min, f.w);
+  for (const auto& p : particles)
+    if (p.w > 0) h_min = std::min(h_min, p.w);
+  const glm::dvec3 size = glm::dvec3(E.grid.dims) * E.grid.spacing;
+  const double extent = std::max({size.x, size.y, size.z});
+  if (std::isfinite(h_min))
+    max_level_ = uint32_t(std::clamp(int(std::ceil(std::log2(extent / (0.25 * double(h_min))))), 1, 21));
 }
 
 void ParticleSystem::record_walk(gpu::Sequence& seq) {
   sort_.record(seq, particles_, box_, keys_, order_, n_);
-  build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_);
-  moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_);
+  build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
+  moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_,
+                  max_level_);
   walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
                visits_, n_, ~0u, options_.theta);
   seq.barrier();

@@ -17,7 +17,7 @@ namespace cpmesh::particles {
 struct AdvectionOptions {
   float alpha = 0.05f;      // step = -alpha h^2 grad E (the starting value: run() adapts it)
   float max_move = 0.2f;    // at most this fraction of h per iteration
-  uint32_t leaf_size = 16;  // octree leaf bucket
+  uint32_t leaf_size = 16;  // octree leaf bucket (cells below a quarter of the smallest h are leaves regardless)
   float theta = 0.0f;       // 0: exact walk (prune beyond the energy's support); > 0: Barnes-Hut opening angle
   double delta = 0.0015;    // stop when the relative energy decrease falls below this (paper)
   int max_iterations = 500;
@@ -75,6 +75,7 @@ class ParticleSystem {
   uint32_t n_;
   fields::GpuEmbedding embedding_;
   octree::MortonBox box_;
+  uint32_t max_level_ = 21;  // octree depth: cells down to a quarter of the smallest h (octree_levels)
   octree::MortonSort sort_;
   octree::OctreeBuild build_;
   octree::OctreeMoments moments_;

@@ -2,13 +2,13 @@
 
 namespace cpmesh::ref {
 
-Octree build_octree(const std::vector<uint64_t>& keys, uint32_t leaf_size) {
+Octree build_octree(const std::vector<uint64_t>& keys, uint32_t leaf_size, uint32_t max_level) {
   Octree t;
   const uint32_t n = uint32_t(keys.size());
   t.nodes.push_back(glm::uvec4(0, n, 0, 0));
   t.level_info.assign(22, glm::uvec2(0));
   t.level_info[0] = glm::uvec2(0, 1);
-  for (uint32_t level = 0; level < 21; ++level) {
+  for (uint32_t level = 0; level < max_level && level < 21; ++level) {
     const glm::uvec2 here = t.level_info[level];
     const uint32_t base = here.x + here.y;
     uint32_t count = 0;

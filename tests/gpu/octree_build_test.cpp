@@ -54,6 +54,36 @@ TEST_CASE("reference octree: children partition their parent, leaves are small, 
   CHECK(leaf_particles == keys.size());
 }
 
+TEST_CASE_FIXTURE(GpuFixture, "GPU octree with a depth cap matches the reference; nodes at the cap are leaves") {
+  octree::OctreeBuild build(ctx);
+  const uint32_t n = 5000, leaf = 4;
+  const auto keys = sorted_keys(n, 99, true);
+  for (uint32_t max_level : {1u, 3u, 6u}) {
+    CAPTURE(max_level);
+    const auto want = ref::build_octree(keys, leaf, max_level);
+    const auto full = ref::build_octree(keys, leaf);
+    gpu::Buffer<uint64_t> k(ctx, keys, "keys");
+    gpu::Buffer<glm::uvec4> nodes(ctx, octree::OctreeBuild::node_capacity(n, leaf), "nodes");
+    gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+    gpu::Sequence seq(ctx);
+    build.record(seq, k, n, leaf, nodes, info, max_level);
+    seq.submit_and_wait();
+    REQUIRE(info.download() == want.level_info);
+    CHECK(nodes.download(0, want.nodes.size()) == want.nodes);
+    // The levels up to the cap are the full tree's; below it there is nothing, and every particle is in a leaf.
+    for (uint32_t l = 0; l <= max_level; ++l) CHECK(want.level_info[l].y == full.level_info[l].y);
+    for (uint32_t l = max_level + 1; l < 22; ++l) CHECK(want.level_info[l].y == 0);
+    uint32_t in_leaves = 0, crowded = 0;
+    for (const auto& node : want.nodes)
+      if ((node.w & 0xffu) == 0) {
+        in_leaves += node.y;
+        crowded += node.y > leaf;
+      }
+    CHECK(in_leaves == n);
+    CHECK(crowded > 0);  // clustered keys: the cap leaves some leaves fuller than leaf_size
+  }
+}
+
 TEST_CASE_FIXTURE(GpuFixture, "GPU octree matches the reference") {
   octree::OctreeBuild build(ctx);
   for (uint32_t n : {0u, 1u, 17u, 1000u, 70000u}) {
