@@ -19,8 +19,10 @@ class MortonSort {
  public:
   explicit MortonSort(gpu::Context& ctx);
   // keys[i], indices[i] for i < n: sorted Morton keys and the particle each came from (stable for equal keys).
+  // levels (1..21): sorted by the top 3 x levels bits only, all an octree of that depth looks at (fewer passes).
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::vec4>& positions, const MortonBox& box,
-              const gpu::Buffer<uint64_t>& keys, const gpu::Buffer<uint32_t>& indices, uint32_t n) const;
+              const gpu::Buffer<uint64_t>& keys, const gpu::Buffer<uint32_t>& indices, uint32_t n,
+              uint32_t levels = 21) const;
 
  private:
   gpu::Kernel codes_;

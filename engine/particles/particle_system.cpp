@@ -71,7 +71,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
 }
 
 void ParticleSystem::record_walk(gpu::Sequence& seq) {
-  sort_.record(seq, particles_, box_, keys_, order_, n_);
+  sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
   build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
   moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_,
                   max_level_);

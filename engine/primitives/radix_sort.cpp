@@ -15,21 +15,23 @@ RadixSort::RadixSort(Context& ctx)
       scatter64_(ctx, shaders::radix_scatter_u64) {}
 
 void RadixSort::record(Sequence& seq, const Buffer<uint32_t>& keys, const Buffer<uint32_t>& values, uint32_t n,
-                       uint32_t key_bits) const {
-  if (key_bits > 32) throw Error("radix sort of 32-bit keys by " + std::to_string(key_bits) + " bits");
+                       uint32_t key_bits, uint32_t first_bit) const {
+  if (key_bits + first_bit > 32)
+    throw Error("radix sort of 32-bit keys by bits " + std::to_string(first_bit) + " + " + std::to_string(key_bits));
   if (n > keys.size()) throw Error("radix sort: n exceeds the keys buffer");
-  record_passes(seq, false, keys, values, n, key_bits);
+  record_passes(seq, false, keys, values, n, key_bits, first_bit);
 }
 
 void RadixSort::record(Sequence& seq, const Buffer<uint64_t>& keys, const Buffer<uint32_t>& values, uint32_t n,
-                       uint32_t key_bits) const {
-  if (key_bits > 64) throw Error("radix sort of 64-bit keys by " + std::to_string(key_bits) + " bits");
+                       uint32_t key_bits, uint32_t first_bit) const {
+  if (key_bits + first_bit > 64)
+    throw Error("radix sort of 64-bit keys by bits " + std::to_string(first_bit) + " + " + std::to_string(key_bits));
   if (n > keys.size()) throw Error("radix sort: n exceeds the keys buffer");
-  record_passes(seq, true, keys, values, n, key_bits);
+  record_passes(seq, true, keys, values, n, key_bits, first_bit);
 }
 
 void RadixSort::record_passes(Sequence& seq, bool key64, const BufferBase& keys, const Buffer<uint32_t>& values,
-                              uint32_t n, uint32_t key_bits) const {
+                              uint32_t n, uint32_t key_bits, uint32_t first_bit) const {
   if (n > values.size()) throw Error("radix sort: n exceeds the values buffer");
   const uint32_t passes = (key_bits + kDigitBits - 1) / kDigitBits;
   if (n <= 1 || passes == 0) return;
@@ -45,8 +47,8 @@ void RadixSort::record_passes(Sequence& seq, bool key64, const BufferBase& keys,
   const Buffer<uint32_t>* val_src = &values;
   const Buffer<uint32_t>* val_dst = &values_tmp;
   for (uint32_t pass = 0; pass < passes; ++pass) {
-    const uint32_t shift = pass * kDigitBits;
-    const uint32_t bits = std::min(kDigitBits, key_bits - shift);  // the last pass may take fewer bits
+    const uint32_t shift = first_bit + pass * kDigitBits;
+    const uint32_t bits = std::min(kDigitBits, first_bit + key_bits - shift);  // the last pass may take fewer bits
     const struct {
       uint32_t n, shift, n_blocks, digit_mask;
     } push{n, shift, blocks, (1u << bits) - 1};

@@ -38,12 +38,13 @@ std::vector<uint32_t> compact(std::span<const uint32_t> flags, std::span<const u
 
 namespace {
 template <class K>
-void sort_pairs(std::vector<K>& keys, std::vector<uint32_t>& values, uint32_t key_bits) {
+void sort_pairs(std::vector<K>& keys, std::vector<uint32_t>& values, uint32_t key_bits, uint32_t first_bit) {
   if (keys.size() != values.size()) throw std::invalid_argument("ref::radix_sort: keys and values differ in size");
   const K mask = key_bits >= 8 * sizeof(K) ? ~K(0) : (K(1) << key_bits) - 1;
   std::vector<size_t> order(keys.size());
   std::iota(order.begin(), order.end(), size_t(0));
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return (keys[a] & mask) < (keys[b] & mask); });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return ((keys[a] >> first_bit) & mask) < ((keys[b] >> first_bit) & mask); });
   std::vector<K> k(keys.size());
   std::vector<uint32_t> v(values.size());
   for (size_t i = 0; i < order.size(); ++i) {
@@ -55,11 +56,11 @@ void sort_pairs(std::vector<K>& keys, std::vector<uint32_t>& values, uint32_t ke
 }
 }  // namespace
 
-void radix_sort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits) {
-  sort_pairs(keys, values, key_bits);
+void radix_sort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits, uint32_t first_bit) {
+  sort_pairs(keys, values, key_bits, first_bit);
 }
-void radix_sort(std::vector<uint64_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits) {
-  sort_pairs(keys, values, key_bits);
+void radix_sort(std::vector<uint64_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits, uint32_t first_bit) {
+  sort_pairs(keys, values, key_bits, first_bit);
 }
 
 }  // namespace cpmesh::ref

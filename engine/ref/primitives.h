@@ -17,7 +17,9 @@ uint32_t reduce(std::span<const uint32_t> src, uint32_t op);
 std::vector<uint32_t> compact(std::span<const uint32_t> flags, std::span<const uint32_t> values);
 
 // Stable sort of (key, value) pairs by the low key_bits bits of the key.   (radix_histogram_* + radix_scatter_*)
-void radix_sort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 32);
-void radix_sort(std::vector<uint64_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 64);
+void radix_sort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 32,
+                uint32_t first_bit = 0);
+void radix_sort(std::vector<uint64_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 64,
+                uint32_t first_bit = 0);
 
 }  // namespace cpmesh::ref
