@@ -27,16 +27,26 @@ CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& loca
   const glm::vec3 g0 = glm::floor(u);
   const glm::vec3 t = u - g0;
   const glm::ivec3 base = glm::ivec3(g0) - 1;
+  // The cells the stencil touches, each block found once (as the shader does).
+  if (glm::any(glm::lessThan(base, glm::ivec3(0)))) return r;
+  const glm::ivec3 c0 = base / sub, c1 = (base + 3) / sub;
+  if (glm::any(glm::greaterThanEqual(c1, E.grid.dims))) return r;
+  int64_t cell_block[64];
+  for (int z = 0; z <= c1.z - c0.z; ++z)
+    for (int y = 0; y <= c1.y - c0.y; ++y)
+      for (int x = 0; x <= c1.x - c0.x; ++x) {
+        const glm::ivec3 cell = c0 + glm::ivec3(x, y, z);
+        const int64_t block = E.find_block(E.grid.index(cell.x, cell.y, cell.z), feature);
+        if (block < 0) return r;
+        cell_block[(z * 4 + y) * 4 + x] = block;
+      }
   glm::vec4 v[4][4][4];
   for (int z = 0; z < 4; ++z)
     for (int y = 0; y < 4; ++y)
       for (int x = 0; x < 4; ++x) {
         const glm::ivec3 f = base + glm::ivec3(x, y, z);
-        if (glm::any(glm::lessThan(f, glm::ivec3(0)))) return r;
-        const glm::ivec3 cell = f / sub, s = f - cell * sub;
-        if (glm::any(glm::greaterThanEqual(cell, E.grid.dims))) return r;
-        const int64_t block = E.find_block(E.grid.index(cell.x, cell.y, cell.z), feature);
-        if (block < 0) return r;
+        const glm::ivec3 cell = f / sub, s = f - cell * sub, c = cell - c0;
+        const int64_t block = cell_block[(c.z * 4 + c.y) * 4 + c.x];
         v[z][y][x] = E.fine[size_t(block) * size_t(sub * sub * sub) + size_t((s.z * sub + s.y) * sub + s.x)];
       }
   glm::vec4 vy[4][4], vz[4];

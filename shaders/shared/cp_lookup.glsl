@@ -4,7 +4,8 @@
 //            fine points split in chunks of CP_CHUNK_BLOCKS blocks: fields::GpuEmbedding)
 //   and the values CP_DIMS (ivec3), CP_SUB (int), CP_SPACING (vec3), CP_MASK (uint, table size - 1),
 //   CP_CHUNK_BLOCKS (uint).
-// Loops: 64 stencil points x at most CP_MAX_PROBES probes (2048 iterations per call, far below lavapipe's limit).
+// Loops: at most 64 cells x CP_MAX_PROBES probes (2048 iterations per call, far below lavapipe's limit), then the
+// 64 stencil points.
 #ifndef CPMESH_CP_LOOKUP_GLSL
 #define CPMESH_CP_LOOKUP_GLSL
 
@@ -62,12 +63,26 @@ vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
 
 // Closest point (xyz) and sizing (w) for a point in local coordinates on `feature`; valid = false when part of the
 // stencil lies outside the feature's band (the point left it), and then the point itself is returned.
+// The 4^3 stencil of fine points lies in at most 3^3 cells (sub >= 2; 4^3 for sub = 1): each cell's block is looked
+// up once, not once per fine point.
 vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   valid = false;
   const vec3 u = local_pos / CP_SPACING * float(CP_SUB);
   const vec3 g0 = floor(u);
   const vec3 t = u - g0;
   const ivec3 base = ivec3(g0) - 1;
+  if (any(lessThan(base, ivec3(0)))) return vec4(local_pos, 0.0);
+  const ivec3 c0 = base / CP_SUB, c1 = (base + 3) / CP_SUB;
+  if (any(greaterThanEqual(c1, CP_DIMS))) return vec4(local_pos, 0.0);
+  int cell_block[64];
+  for (int z = 0; z <= c1.z - c0.z; ++z)
+    for (int y = 0; y <= c1.y - c0.y; ++y)
+      for (int x = 0; x <= c1.x - c0.x; ++x) {
+        const ivec3 cell = c0 + ivec3(x, y, z);
+        const int block = cp_find_block(uint((cell.z * CP_DIMS.y + cell.y) * CP_DIMS.x + cell.x), feature);
+        if (block < 0) return vec4(local_pos, 0.0);
+        cell_block[(z * 4 + y) * 4 + x] = block;
+      }
   vec4 vy[4];
   for (int z = 0; z < 4; ++z) {
     vec4 vx[4];
@@ -75,14 +90,9 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
       vec4 v[4];
       for (int x = 0; x < 4; ++x) {
         const ivec3 f = base + ivec3(x, y, z);
-        if (any(lessThan(f, ivec3(0)))) return vec4(local_pos, 0.0);
         const ivec3 cell = f / CP_SUB;
-        const ivec3 s = f - cell * CP_SUB;
-        if (any(greaterThanEqual(cell, CP_DIMS))) return vec4(local_pos, 0.0);
-        const uint cell_index = uint((cell.z * CP_DIMS.y + cell.y) * CP_DIMS.x + cell.x);
-        const int block = cp_find_block(cell_index, feature);
-        if (block < 0) return vec4(local_pos, 0.0);
-        v[x] = cp_fine_point(uint(block), uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
+        const ivec3 s = f - cell * CP_SUB, c = cell - c0;
+        v[x] = cp_fine_point(uint(cell_block[(c.z * 4 + c.y) * 4 + c.x]), uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
       }
       vx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
     }
