@@ -33,7 +33,17 @@ void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
 }  // namespace
 
 detail::BufferStorage::~BufferStorage() {
-  if (ctx && allocated_bytes) ctx->note_free(allocated_bytes);
+  if (!ctx || !allocated_bytes) return;
+  // Back to the context for the next buffer of this size (the GPU is done with it: sequences hold their buffers
+  // until their fence has signalled).
+  Context::PooledBuffer p;
+  p.bytes = bytes;
+  p.allocated_bytes = allocated_bytes;
+  p.use = use;
+  p.mapped = mapped;
+  p.buffer = std::move(buffer);
+  p.memory = std::move(memory);
+  ctx->give_back_buffer(std::move(p));
 }
 
 BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUse use) {
@@ -41,6 +51,20 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
   auto s = std::make_shared<detail::BufferStorage>();
   s->label = std::move(label);
   s->bytes = bytes;
+  s->use = int(use);
+  Context::PooledBuffer pooled;
+  if (ctx.take_pooled(bytes, int(use), pooled)) {
+    s->buffer = std::move(pooled.buffer);
+    s->memory = std::move(pooled.memory);
+    s->mapped = pooled.mapped;
+    s->allocated_bytes = pooled.allocated_bytes;
+    s->ctx = &ctx;
+    if (ctx.validation_enabled())
+      ctx.device().setDebugUtilsObjectNameEXT(vk::DebugUtilsObjectNameInfoEXT(
+          vk::ObjectType::eBuffer, uint64_t(static_cast<VkBuffer>(*s->buffer)), s->label.c_str()));
+    s_ = std::move(s);
+    return;
+  }
   guarded("creating buffer '" + s->label + "' of " + std::to_string(bytes) + " bytes", [&] {
     using U = vk::BufferUsageFlagBits;
     // Vulkan forbids empty buffers; an empty Buffer still owns a small one so that it can be bound.

@@ -22,6 +22,7 @@ struct BufferStorage {
   uint64_t bytes = 0;            // as asked for (may be 0)
   uint64_t allocated_bytes = 0;  // what the allocation really takes
   void* mapped = nullptr;        // non-null when host-visible
+  int use = 0;                   // MemoryUse, for recycling
   vk::raii::Buffer buffer = nullptr;
   vk::raii::DeviceMemory memory = nullptr;
   ~BufferStorage();

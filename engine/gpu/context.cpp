@@ -278,6 +278,7 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
 
 Context::~Context() {
   if (*device_) device_.waitIdle();
+  pool_.clear();
 }
 
 uint64_t Context::validation_error_count() const {
@@ -303,6 +304,29 @@ void Context::note_allocation(uint64_t bytes) {
 }
 
 void Context::note_free(uint64_t bytes) { memory_.current_bytes -= std::min(bytes, memory_.current_bytes); }
+
+bool Context::take_pooled(uint64_t bytes, int use, PooledBuffer& out) {
+  std::lock_guard lock(pool_mutex_);
+  for (size_t i = pool_.size(); i-- > 0;) {  // the most recently released first
+    if (pool_[i].bytes != bytes || pool_[i].use != use) continue;
+    out = std::move(pool_[i]);
+    pool_.erase(pool_.begin() + long(i));
+    pooled_bytes_ -= out.allocated_bytes;
+    return true;
+  }
+  return false;
+}
+
+void Context::give_back_buffer(PooledBuffer&& buffer) {
+  std::lock_guard lock(pool_mutex_);
+  pooled_bytes_ += buffer.allocated_bytes;
+  pool_.push_back(std::move(buffer));
+  while (!pool_.empty() && (pooled_bytes_ > kPoolBytes || pool_.size() > kPoolEntries)) {
+    pooled_bytes_ -= pool_.front().allocated_bytes;
+    note_free(pool_.front().allocated_bytes);
+    pool_.erase(pool_.begin());
+  }
+}
 
 uint32_t Context::memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required,
                               vk::MemoryPropertyFlags preferred) const {

@@ -98,6 +98,21 @@ class Context {
   void clear_profile() { profile_.clear(); }
 
   const MemoryStats& memory_stats() const { return memory_; }
+  // Recycling of device buffers (gpu/buffer.h): a released buffer goes back to the context, and a new buffer of the
+  // same size and use takes it instead of a fresh vkAllocateMemory (an iteration's temporaries have the same sizes
+  // every time). Pooled memory stays counted in memory_stats(). At most kPoolBytes and kPoolEntries are kept, the
+  // oldest released first beyond that. key = (bytes, use).
+  struct PooledBuffer {
+    uint64_t bytes = 0, allocated_bytes = 0;
+    int use = 0;
+    void* mapped = nullptr;
+    vk::raii::Buffer buffer = nullptr;
+    vk::raii::DeviceMemory memory = nullptr;
+  };
+  static constexpr uint64_t kPoolBytes = 512ull << 20;
+  static constexpr size_t kPoolEntries = 256;
+  bool take_pooled(uint64_t bytes, int use, PooledBuffer& out);
+  void give_back_buffer(PooledBuffer&& buffer);
   void note_allocation(uint64_t bytes);
   void note_free(uint64_t bytes);
 
@@ -138,6 +153,10 @@ class Context {
   vk::raii::Device device_ = nullptr;
   vk::raii::Queue queue_ = nullptr;
   vk::raii::CommandPool command_pool_ = nullptr;
+  // After the device: destroyed before it.
+  std::mutex pool_mutex_;
+  std::vector<PooledBuffer> pool_;  // oldest first
+  uint64_t pooled_bytes_ = 0;
 };
 
 }  // namespace cpmesh::gpu

@@ -56,14 +56,31 @@ TEST_CASE_FIXTURE(GpuFixture, "a buffer larger than maxStorageBufferRange gets a
   }
 }
 
-TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted, and freed when buffers go away") {
-  const uint64_t before = ctx.memory_stats().current_bytes;
+TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted; released buffers are recycled, then freed oldest first") {
+  const uint64_t n = (1u << 20) + 4099;  // a size no other test uses
+  const uint64_t before = ctx.memory_stats().current_bytes, allocations = ctx.memory_stats().allocations;
   {
-    gpu::Buffer<uint32_t> b(ctx, 1 << 20, "accounted");
-    CHECK(ctx.memory_stats().current_bytes >= before + (4u << 20));
-    CHECK(ctx.memory_stats().peak_bytes >= before + (4u << 20));
+    gpu::Buffer<uint32_t> b(ctx, n, "accounted");
+    CHECK(ctx.memory_stats().current_bytes >= before + 4 * n);
+    CHECK(ctx.memory_stats().peak_bytes >= before + 4 * n);
+    CHECK(ctx.memory_stats().allocations == allocations + 1);
   }
-  CHECK(ctx.memory_stats().current_bytes == before);
+  // Released into the context's pool: still allocated (releasing it may free older pooled buffers beyond the pool's
+  // limits, so `before` is no reference any more), and the next buffer of that size takes it.
+  const uint64_t held = ctx.memory_stats().current_bytes;
+  {
+    gpu::Buffer<uint32_t> again(ctx, n, "recycled");
+    CHECK(ctx.memory_stats().allocations == allocations + 1);
+    CHECK(ctx.memory_stats().current_bytes == held);
+    again.upload(std::vector<uint32_t>(n, 7));
+    CHECK(again.download(n - 1, 1)[0] == 7);
+  }
+  // More released buffers than the pool keeps: the oldest, ours among them, are freed.
+  {
+    std::vector<gpu::Buffer<uint32_t>> many;
+    for (size_t i = 0; i < gpu::Context::kPoolEntries + 8; ++i) many.emplace_back(ctx, 7 + i, "many");
+  }
+  CHECK(ctx.memory_stats().current_bytes < held);
 }
 
 TEST_CASE("reflection reads bindings, push constants and workgroup size from SPIR-V") {
