@@ -317,6 +317,13 @@ bool Context::take_pooled(uint64_t bytes, int use, PooledBuffer& out) {
   return false;
 }
 
+void Context::release_pooled() {
+  std::lock_guard lock(pool_mutex_);
+  for (const auto& p : pool_) note_free(p.allocated_bytes);
+  pool_.clear();
+  pooled_bytes_ = 0;
+}
+
 void Context::give_back_buffer(PooledBuffer&& buffer) {
   std::lock_guard lock(pool_mutex_);
   pooled_bytes_ += buffer.allocated_bytes;

@@ -113,6 +113,7 @@ class Context {
   static constexpr size_t kPoolEntries = 256;
   bool take_pooled(uint64_t bytes, int use, PooledBuffer& out);
   void give_back_buffer(PooledBuffer&& buffer);
+  void release_pooled();  // frees every pooled buffer (memory measurements start from here)
   void note_allocation(uint64_t bytes);
   void note_free(uint64_t bytes);
 

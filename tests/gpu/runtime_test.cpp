@@ -81,6 +81,11 @@ TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted; released buffers are 
     for (size_t i = 0; i < gpu::Context::kPoolEntries + 8; ++i) many.emplace_back(ctx, 7 + i, "many");
   }
   CHECK(ctx.memory_stats().current_bytes < held);
+  // Releasing the pool frees what it holds.
+  { gpu::Buffer<uint32_t> last(ctx, n, "released"); }
+  const uint64_t pooled = ctx.memory_stats().current_bytes;
+  ctx.release_pooled();
+  CHECK(ctx.memory_stats().current_bytes + 4 * n <= pooled);
 }
 
 TEST_CASE("reflection reads bindings, push constants and workgroup size from SPIR-V") {

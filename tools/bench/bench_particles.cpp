@@ -70,6 +70,7 @@ void run_scaling(gpu::Context& ctx, fields::FieldsResult& F, std::vector<uint32_
   nlohmann::json rows = nlohmann::json::array();
   for (uint32_t n : counts) {
     const auto start = sphere_start(n);
+    ctx.release_pooled();  // the previous count's buffers would otherwise be recycled into this one's
     const uint64_t before = ctx.memory_stats().current_bytes;
     particles::AdvectionOptions opt;
     opt.theta = theta;
