@@ -10,7 +10,8 @@
 // Tightening may move a surface across voxel centres; three things keep it honest:
 //  - parts thinner than about 2r (no voxel of the material is r deep within 2r of them: sheets, vessels, small
 //    components) are protected and kept as they are; their voxel count is reported (IndicatorFields::protected_voxels);
-//  - the flow fades out near junctions (where the smoothing turns into twicing), so triple curves and quadruple points stay put;
+//  - the flow fades out near junctions (where the smoothing turns into twicing), so triple curves and quadruple
+//    points stay put;
 //  - the voxel centres that did change material are counted per material (tightened_voxels).
 // Values are physical distances (local units), clamped to +-band outside a narrow band, and stored in sparse bricks.
 #include <cstdint>

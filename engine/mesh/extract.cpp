@@ -189,8 +189,8 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
     if (inradius > best[root]) best[root] = inradius, rep_of[root] = t;
   }
   // Components open to the outside (a hull face with the same material beyond it, so no interface triangle there) are
-  // outside every closed interface: the volume mesher drops them as
-  // exterior, and a seed there (a flat hull tet, moved by the smoothing) could land inside a region and relabel it.
+  // outside every closed interface: the volume mesher drops them as exterior, and a seed there (a flat hull tet,
+  // moved by the smoothing) could land inside a region and relabel it.
   std::vector<uint8_t> unbounded(T.tets.size(), 0);
   for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc)
     if (adj.neighbour[tc] == Adjacency::kHull && material_across(adj, hull, material, tc) == material[tc / 4])

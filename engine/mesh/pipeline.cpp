@@ -67,7 +67,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   begin("advection");
   auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population);
-  rep.protected_particles = particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);
+  rep.protected_particles =
+      particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);
   stage_done("advection");
   const auto& P = relaxed.population;
   rep.particles = P.particles.size();

@@ -11,8 +11,9 @@
 //   cpmesh::io::write_vtu("volume.vtu", result.volume);
 //
 // Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
-// "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of the particles, tet labels,
-// repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh" (TetGen -pqAY bounded by the interface triangles).
+// "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of
+// the particles, tet labels, repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh"
+// (TetGen -pqAY bounded by the interface triangles, then the sliver pass).
 #include <array>
 #include <functional>
 #include <string>

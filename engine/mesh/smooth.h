@@ -7,12 +7,14 @@
 // keeps the move only if none of its triangles flips and the worst radius ratio among them does not get worse
 // ("smart" Laplacian smoothing). Quadruple points do not move. Connectivity is unchanged, so the interfaces stay
 // conforming along the curves and manifold where they were.
+#include <array>
 #include <cstdint>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "fields/closest_point_embedding.h"
 #include "mesh/extract.h"
-#include "mesh/tetgen.h"
 
 namespace cpmesh::mesh {
 

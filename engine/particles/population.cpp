@@ -124,6 +124,25 @@ double HostIndex::energy(const glm::vec3& p, float h, uint32_t feature, uint32_t
   return e;
 }
 
+std::optional<glm::vec3> HostIndex::nearest(const glm::vec3& p, uint32_t feature, float radius) const {
+  const glm::ivec3 lo = cell_of(p - radius), hi = cell_of(p + radius);
+  std::optional<glm::vec3> best;
+  float best_d = radius;
+  for (int z = lo.z; z <= hi.z; ++z)
+    for (int y = lo.y; y <= hi.y; ++y)
+      for (int x = lo.x; x <= hi.x; ++x) {
+        const auto it = cells_.find(key({x, y, z}));
+        if (it == cells_.end()) continue;
+        for (uint32_t j : it->second) {
+          const Entry& q = entries_[j];
+          if (q.feature != feature) continue;
+          const float d = glm::length(p - glm::vec3(q.particle));
+          if (d <= best_d) best_d = d, best = glm::vec3(q.particle);
+        }
+      }
+  return best;
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 
 namespace {
@@ -385,20 +404,17 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
     for (const auto& q : E.quadruple_points)
       if ((E.features[q.feature].material_mask() & mine) == mine) points_of[f].push_back(q.position);
   }
-  // Curve particles in a hash grid of cells as large as the largest h among them: a point within rho h of a curve
-  // lies within h of one of its particles (they are spaced about h apart), so 27 cells hold every candidate.
+  // Curve particles in a host index of cells as large as the largest h among them: a point within rho h of a curve
+  // lies within about h of one of its particles (they are spaced about h apart).
   float cell = 0;
   for (size_t i = 0; i < n; ++i)
     if (E.features[population.features[i]].kind == fields::FeatureKind::triple_curve)
       cell = std::max(cell, population.particles[i].w);
   if (cell <= 0) return 0;
-  auto key = [](const glm::ivec3& c) {
-    return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) | uint64_t(uint32_t(c.z) & 0x1fffff);
-  };
-  std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
+  HostIndex curve_index(E, cell);
   for (size_t i = 0; i < n; ++i)
     if (E.features[population.features[i]].kind == fields::FeatureKind::triple_curve)
-      grid[key(glm::ivec3(glm::floor(glm::vec3(population.particles[i]) / cell)))].push_back(uint32_t(i));
+      curve_index.insert(population.particles[i], population.features[i]);
 
   std::vector<uint8_t> drop(n, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
@@ -409,27 +425,15 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
       const double h = double(population.particles[i].w), reach = rho * h;
       bool near = false;
       for (const glm::dvec3& q : points_of[f]) near = near || glm::length(q - p) < reach;
-      for (uint32_t c : curves_of[f]) {
-        if (near) break;
-        // The nearest particle of curve c starts the projection (and picks the right piece of a curve in pieces).
-        const glm::ivec3 base(glm::floor(glm::vec3(p) / cell));
-        double best = std::max(double(cell), h) * 1.5;
-        int nearest = -1;
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const auto it = grid.find(key(base + glm::ivec3(dx, dy, dz)));
-              if (it == grid.end()) continue;
-              for (uint32_t j : it->second) {
-                if (population.features[j] != c) continue;
-                const double d = glm::length(glm::dvec3(glm::vec3(population.particles[j])) - p);
-                if (d < best) best = d, nearest = int(j);
-              }
-            }
-        if (nearest < 0 || best > reach + h) continue;
-        const glm::dvec3 start(glm::vec3(population.particles[size_t(nearest)]));
+      for (size_t k = 0; k < curves_of[f].size() && !near; ++k) {
+        // The nearest particle of the curve starts the projection (and picks the right piece of a curve in pieces).
+        const uint32_t c = curves_of[f][k];
+        const auto start = curve_index.nearest(glm::vec3(p), c, float(reach + h));
+        if (!start) continue;
+        const glm::dvec3 from(*start);
         glm::dvec3 foot;
-        if (fields::project_to_feature(fields, E.features[c], p, foot, 30, 3, &start)) near = glm::length(foot - p) < reach;
+        if (fields::project_to_feature(fields, E.features[c], p, foot, 30, 3, &from))
+          near = glm::length(foot - p) < reach;
       }
       drop[i] = near;
     }

@@ -31,6 +31,7 @@
 // sparse has every particle's energy between the thresholds, so (b) is what brings the count to the sizing field's.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <random>
 #include <unordered_map>
 #include <vector>
@@ -95,6 +96,8 @@ class HostIndex {
   // Energy of a particle at p with sizing h on `feature` against every live particle except `skip`, with the tree
   // walk's interaction rule (j's materials include i's).
   double energy(const glm::vec3& p, float h, uint32_t feature, uint32_t skip = ~0u) const;
+  // The live particle of exactly `feature` nearest to p within `radius` (its position), or nothing.
+  std::optional<glm::vec3> nearest(const glm::vec3& p, uint32_t feature, float radius) const;
   const std::vector<uint64_t>& masks() const { return masks_; }
   size_t size() const { return live_; }
 
@@ -159,8 +162,9 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& embedd
 
 // Junction protection, for meshing: removes every interface particle closer than rho x its h to a triple curve or
 // quadruple point that bounds its interface (curves: the closest point on the curve of the smooth fields, by the
-// embedding's Newton projection from the nearest particle of that curve; quadruple points: their positions). The particle system keeps interface particles about h from curve particles, but between two
-// curve particles nothing stops them from creeping up to the curve itself (they feel only curve particles, not the
+// embedding's Newton projection from the nearest particle of that curve; quadruple points: their positions). The
+// particle system keeps interface particles about h from curve particles, but between two curve particles nothing
+// stops them from creeping up to the curve itself (they feel only curve particles, not the
 // interfaces across the curve), and a particle a fraction of h from a curve makes the restricted Delaunay
 // triangles there slivers or gives triangles that span the curve (wrong faces, non-manifold interfaces). A band
 // free of interface particles around every curve is the protecting-ball condition of Cheng, Dey and Ramos
