@@ -105,41 +105,23 @@ void HostIndex::remove(uint32_t id) {
 double HostIndex::energy(const glm::vec3& p, float h, uint32_t feature, uint32_t skip) const {
   const uint64_t mask = masks_[feature];
   // Pairs interact within sqrt(3) min(h, h_j) <= sqrt(3) h.
-  const float reach = kSupport * std::min(h, h_max_);
-  const glm::ivec3 lo = cell_of(p - reach), hi = cell_of(p + reach);
   double e = 0;
-  for (int z = lo.z; z <= hi.z; ++z)
-    for (int y = lo.y; y <= hi.y; ++y)
-      for (int x = lo.x; x <= hi.x; ++x) {
-        const auto it = cells_.find(key({x, y, z}));
-        if (it == cells_.end()) continue;
-        for (uint32_t j : it->second) {
-          if (j == skip) continue;
-          const Entry& q = entries_[j];
-          if ((masks_[q.feature] & mask) != mask) continue;
-          const float r = glm::length(p - glm::vec3(q.particle));
-          e += pair_energy(r / (kSupport * std::min(h, q.particle.w)));
-        }
-      }
+  for_each_near(p, kSupport * std::min(h, h_max_), [&](uint32_t j, const Entry& q) {
+    if (j == skip || (masks_[q.feature] & mask) != mask) return;
+    const float r = glm::length(p - glm::vec3(q.particle));
+    e += pair_energy(r / (kSupport * std::min(h, q.particle.w)));
+  });
   return e;
 }
 
 std::optional<glm::vec3> HostIndex::nearest(const glm::vec3& p, uint32_t feature, float radius) const {
-  const glm::ivec3 lo = cell_of(p - radius), hi = cell_of(p + radius);
   std::optional<glm::vec3> best;
   float best_d = radius;
-  for (int z = lo.z; z <= hi.z; ++z)
-    for (int y = lo.y; y <= hi.y; ++y)
-      for (int x = lo.x; x <= hi.x; ++x) {
-        const auto it = cells_.find(key({x, y, z}));
-        if (it == cells_.end()) continue;
-        for (uint32_t j : it->second) {
-          const Entry& q = entries_[j];
-          if (q.feature != feature) continue;
-          const float d = glm::length(p - glm::vec3(q.particle));
-          if (d <= best_d) best_d = d, best = glm::vec3(q.particle);
-        }
-      }
+  for_each_near(p, radius, [&](uint32_t, const Entry& q) {
+    if (q.feature != feature) return;
+    const float d = glm::length(p - glm::vec3(q.particle));
+    if (d <= best_d) best_d = d, best = glm::vec3(q.particle);
+  });
   return best;
 }
 

@@ -102,8 +102,21 @@ class HostIndex {
   size_t size() const { return live_; }
 
  private:
+  struct Entry;
   glm::ivec3 cell_of(const glm::vec3& p) const;
   static uint64_t key(const glm::ivec3& c);
+  // Calls fn(id, entry) for every live particle in the cells covering the ball of `radius` around p.
+  template <class Fn>
+  void for_each_near(const glm::vec3& p, float radius, Fn&& fn) const {
+    const glm::ivec3 lo = cell_of(p - radius), hi = cell_of(p + radius);
+    for (int z = lo.z; z <= hi.z; ++z)
+      for (int y = lo.y; y <= hi.y; ++y)
+        for (int x = lo.x; x <= hi.x; ++x) {
+          const auto it = cells_.find(key({x, y, z}));
+          if (it == cells_.end()) continue;
+          for (uint32_t j : it->second) fn(j, entries_[j]);
+        }
+  }
   double cell_;
   float h_max_ = 0;
   size_t live_ = 0;
