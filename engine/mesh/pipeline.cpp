@@ -206,6 +206,16 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
       rep.tet_improvement = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
                                          options.volume.max_radius_edge);
+      // What moving vertices left: slivers among kept surface vertices. Refill them around a new vertex, then let
+      // the vertex pass place the new vertices among their neighbours.
+      rep.sliver_split = split_slivers(V.points, V.tets, V.region, I.triangles, options.volume.min_dihedral,
+                                       options.volume.max_radius_edge);
+      if (rep.sliver_split.inserted > 0) {
+        const auto again = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
+                                        options.volume.max_radius_edge);
+        rep.tet_improvement.min_dihedral_after = again.min_dihedral_after;
+        rep.tet_improvement.moves += again.moves;
+      }
       auto& out = result.volume;
       for (const auto& p : V.points) {
         const glm::dvec3 q = grid.to_physical(p);

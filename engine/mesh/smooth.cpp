@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -193,6 +196,201 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   worst = M_PI;
   for (const auto& t : tets) worst = std::min(worst, min_angle(t));
   report.min_dihedral_after = worst * 180 / M_PI;
+  return report;
+}
+
+namespace {
+
+struct FaceKey {
+  std::array<uint32_t, 3> v;
+  explicit FaceKey(std::array<uint32_t, 3> f) : v(f) { std::sort(v.begin(), v.end()); }
+  bool operator==(const FaceKey& o) const { return v == o.v; }
+};
+struct FaceHash {
+  size_t operator()(const FaceKey& k) const {
+    return std::hash<uint64_t>()((uint64_t(k.v[0]) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(k.v[1]) << 21) ^ uint64_t(k.v[2]) * 0xC2B2AE3D27D4EB4Full);
+  }
+};
+
+// The face of tet t opposite its vertex i.
+std::array<uint32_t, 3> face_of(const std::array<uint32_t, 4>& t, int i) {
+  std::array<uint32_t, 3> f{};
+  int n = 0;
+  for (int a = 0; a < 4; ++a)
+    if (a != i) f[size_t(n++)] = t[size_t(a)];
+  return f;
+}
+
+}  // namespace
+
+SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
+                                std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
+                                double target_deg, double max_radius_edge, int max_rings) {
+  SliverSplitReport report;
+  const double target = target_deg * M_PI / 180;
+  constexpr uint32_t dead = UINT32_MAX;
+  auto orient = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+    return glm::dot(b - a, glm::cross(c - a, d - a));
+  };
+  auto min_angle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+    const auto x = dihedral_angles(a, b, c, d);
+    return *std::min_element(x.begin(), x.end());
+  };
+  auto tet_min_angle = [&](const std::array<uint32_t, 4>& t) { return min_angle(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
+  std::unordered_set<FaceKey, FaceHash> kept_faces;
+  for (const auto& f : kept) kept_faces.insert(FaceKey(f));
+  // Face -> the (at most two) tets on it.
+  std::unordered_map<FaceKey, std::array<uint32_t, 2>, FaceHash> faces;
+  auto link = [&](uint32_t t) {
+    for (int i = 0; i < 4; ++i) {
+      auto [it, fresh] = faces.try_emplace(FaceKey(face_of(tets[t], i)), std::array<uint32_t, 2>{t, dead});
+      if (!fresh) it->second[1] = t;
+    }
+  };
+  auto unlink = [&](uint32_t t) {
+    for (int i = 0; i < 4; ++i) {
+      auto it = faces.find(FaceKey(face_of(tets[t], i)));
+      if (it == faces.end()) continue;
+      auto& pair = it->second;
+      if (pair[0] == t) pair[0] = pair[1];
+      pair[1] = dead;
+      if (pair[0] == dead) faces.erase(it);
+    }
+  };
+  for (uint32_t t = 0; t < tets.size(); ++t) link(t);
+  auto neighbour = [&](uint32_t t, int i) {
+    const auto it = faces.find(FaceKey(face_of(tets[t], i)));
+    if (it == faces.end()) return dead;
+    return it->second[0] == t ? it->second[1] : it->second[0];
+  };
+
+  const bool had_regions = !region.empty();
+  if (!had_regions) region.assign(tets.size(), 0);
+  std::mt19937 rng(54321);
+  std::normal_distribution<double> n01;
+  std::vector<uint32_t> bad;
+  for (uint32_t t = 0; t < tets.size(); ++t)
+    if (tet_min_angle(tets[t]) < target) bad.push_back(t);
+  for (uint32_t start : bad) {
+    if (tets[start][0] == dead || tet_min_angle(tets[start]) >= target) continue;  // replaced or fixed meanwhile
+    const bool positive = orient(P[tets[start][0]], P[tets[start][1]], P[tets[start][2]], P[tets[start][3]]) > 0;
+    std::vector<uint32_t> cavity{start};
+    std::set<uint32_t> in_cavity{start};
+    bool done = false;
+    for (int ring = 0; ring <= max_rings && !done; ++ring) {
+      if (ring > 0) {  // one more ring of same-region neighbours, not across kept faces
+        const std::vector<uint32_t> current = cavity;
+        for (uint32_t t : current)
+          for (int i = 0; i < 4; ++i) {
+            const uint32_t u = neighbour(t, i);
+            if (u == dead || in_cavity.count(u) || region[u] != region[start]) continue;
+            if (kept_faces.count(FaceKey(face_of(tets[t], i)))) continue;
+            cavity.push_back(u);
+            in_cavity.insert(u);
+          }
+        if (cavity.size() == current.size()) break;
+      }
+      // The cavity's boundary: faces of its tets whose other side is not in it, each with the inner side's sign.
+      struct Boundary {
+        std::array<uint32_t, 3> f;
+        double sign;
+      };
+      std::vector<Boundary> boundary;
+      std::set<uint32_t> cavity_vertices, boundary_vertices;
+      double old_worst = M_PI, old_ratio = 0, volume = 0;
+      glm::dvec3 centroid(0.0);
+      for (uint32_t t : cavity) {
+        const auto& k = tets[t];
+        old_worst = std::min(old_worst, tet_min_angle(k));
+        old_ratio = std::max(old_ratio, radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]));
+        volume += std::fabs(orient(P[k[0]], P[k[1]], P[k[2]], P[k[3]]));
+        for (uint32_t v : k) cavity_vertices.insert(v);
+        for (int i = 0; i < 4; ++i) {
+          const uint32_t u = neighbour(t, i);
+          if (u != dead && in_cavity.count(u)) continue;
+          const auto f = face_of(k, i);
+          boundary.push_back({f, orient(P[f[0]], P[f[1]], P[f[2]], P[k[size_t(i)]]) > 0 ? 1.0 : -1.0});
+          for (uint32_t v : f) boundary_vertices.insert(v);
+        }
+      }
+      if (boundary_vertices.size() != cavity_vertices.size()) continue;  // a vertex inside the cavity would be lost
+      for (uint32_t v : cavity_vertices) centroid += P[v];
+      centroid /= double(cavity_vertices.size());
+      double edge = 0;
+      for (uint32_t v : cavity_vertices) edge += glm::length(P[v] - centroid);
+      edge /= double(cavity_vertices.size());
+      // The cone's tets may go half again over the radius-edge bound: a sliver (ratio often near 1) is far worse for
+      // a solver than a tet of ratio 2 with good angles.
+      const double limit = std::max(1.5 * max_radius_edge, old_ratio);
+      // Smallest dihedral angle of the cone from x, or -1 where a new tet is inverted, flat or over the bound.
+      auto cone_quality = [&](const glm::dvec3& x) {
+        double q = M_PI;
+        for (const auto& b : boundary) {
+          const glm::dvec3 &a = P[b.f[0]], &c = P[b.f[1]], &d = P[b.f[2]];
+          if (orient(a, c, d, x) * b.sign <= 1e-12 * edge * edge * edge) return -1.0;
+          if (radius_edge_ratio(a, c, d, x) > limit) return -1.0;
+          q = std::min(q, min_angle(a, c, d, x));
+        }
+        return q;
+      };
+      double best = -1;
+      glm::dvec3 best_at = centroid;
+      auto consider = [&](const glm::dvec3& x) {
+        const double q = cone_quality(x);
+        if (q > best) best = q, best_at = x;
+      };
+      consider(centroid);
+      for (uint32_t t : cavity) {
+        const auto& k = tets[t];
+        consider(0.25 * (P[k[0]] + P[k[1]] + P[k[2]] + P[k[3]]));
+      }
+      for (int k = 0; k < 64; ++k) consider(centroid + 0.5 * edge * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
+      if (best < 0) continue;
+      for (double step = 0.2 * edge; step > 0.005 * edge; step *= 0.6)
+        for (int k = 0; k < 12; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
+      if (best <= old_worst + 1e-3) continue;
+      double new_volume = 0;
+      for (const auto& b : boundary) new_volume += std::fabs(orient(P[b.f[0]], P[b.f[1]], P[b.f[2]], best_at));
+      if (std::fabs(new_volume - volume) > 1e-9 * std::max(volume, 1e-30)) continue;  // not a star around the point
+      // Replace: the first cavity slots are reused, the rest appended.
+      const uint32_t v = uint32_t(P.size());
+      P.push_back(best_at);
+      const int r = region[start];
+      for (uint32_t t : cavity) unlink(t);
+      for (size_t i = 0; i < boundary.size(); ++i) {
+        const auto& b = boundary[i];
+        // Same orientation as the tets replaced.
+        std::array<uint32_t, 4> k = (b.sign > 0) == positive ? std::array<uint32_t, 4>{b.f[0], b.f[1], b.f[2], v}
+                                                             : std::array<uint32_t, 4>{b.f[0], b.f[2], b.f[1], v};
+        uint32_t slot;
+        if (i < cavity.size()) {
+          slot = cavity[i];
+          tets[slot] = k;
+        } else {
+          slot = uint32_t(tets.size());
+          tets.push_back(k);
+          region.push_back(r);
+        }
+        region[slot] = r;
+        link(slot);
+      }
+      for (size_t i = boundary.size(); i < cavity.size(); ++i) tets[cavity[i]] = {dead, dead, dead, dead};
+      ++report.inserted;
+      done = true;
+    }
+    if (!done) ++report.failed;
+  }
+  // Drop the emptied slots.
+  size_t w = 0;
+  for (size_t t = 0; t < tets.size(); ++t) {
+    if (tets[t][0] == dead) continue;
+    tets[w] = tets[t];
+    region[w] = region[t];
+    ++w;
+  }
+  tets.resize(w);
+  region.resize(w);
+  if (!had_regions) region.clear();
   return report;
 }
 

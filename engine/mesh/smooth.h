@@ -47,4 +47,21 @@ struct TetImproveReport {
 TetImproveReport improve_tets(std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 4>>& tets,
                               size_t fixed, double target_deg = 12.0, double max_radius_edge = 1.5, int passes = 4);
 
+// Slivers that moving vertices cannot fix: a tet whose four vertices are all kept surface vertices (two interface
+// triangles folded a few degrees across their shared edge, with the flat tet filling the fold) keeps its shape
+// whatever the inner vertices do. Each tet whose smallest dihedral angle is below target_deg is cut out together
+// with its neighbours of the same region (never across a face in `kept`, the interface triangles) and the cavity
+// is filled again by joining its boundary faces to one new inner vertex, placed where the smallest dihedral angle
+// of the new tets is largest. The cavity grows by rings (at most `max_rings`) until a position improves on the old
+// tets' smallest angle without a new tet over 1.5 times the radius-edge bound (or the old tets' largest ratio). No kept
+// face changes, no vertex is dropped, the cavity's volume is preserved; new points are appended to `points` and
+// take the cavity's region. Deterministic.
+struct SliverSplitReport {
+  size_t inserted = 0;  // new inner vertices
+  size_t failed = 0;    // slivers no cavity could improve
+};
+SliverSplitReport split_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
+                                std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
+                                double target_deg = 12.0, double max_radius_edge = 1.5, int max_rings = 3);
+
 }  // namespace cpmesh::mesh

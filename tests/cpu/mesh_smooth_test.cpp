@@ -83,3 +83,58 @@ TEST_CASE("improve_tets: a free vertex near a face of a cube moves back inside, 
   CHECK(mesh::improve_tets(P, tets, 8, 1.0).moves == 0);
   CHECK(P == settled);
 }
+
+TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled around one new vertex") {
+  // Two kept triangles abc and abd fold into a shallow valley along ab; the flat tet abcd fills the valley, and two
+  // tets join its top faces to a vertex e above. No vertex can move (all five are kept), so only a new one helps.
+  std::vector<glm::dvec3> P = {{0, 0, 0}, {0, 2, 0}, {-1.5, 1, 0.12}, {1.5, 1, 0.12}, {0, 1, 1.5}};
+  const uint32_t a = 0, b = 1, c = 2, d = 3, e = 4;
+  std::vector<std::array<uint32_t, 4>> tets = {{a, b, c, d}, {a, c, d, e}, {b, d, c, e}};
+  auto orient = [&](const std::array<uint32_t, 4>& t) {
+    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
+  };
+  // Same orientation for all three, as a mesher gives them.
+  for (auto& t : tets)
+    if ((orient(t) > 0) != (orient(tets[0]) > 0)) std::swap(t[0], t[1]);
+  const bool positive = orient(tets[0]) > 0;
+  double volume = 0;
+  for (const auto& t : tets) volume += std::fabs(orient(t)) / 6;
+  std::vector<int> region = {7, 7, 7};
+  const std::vector<std::array<uint32_t, 3>> kept = {{a, b, c}, {a, b, d}};
+  const double before = mesh::tet_stats(P, tets).min_dihedral_deg;
+
+  auto untouched = tets;
+  auto untouched_region = region;
+  CHECK(mesh::split_slivers(P, untouched, untouched_region, kept, 1.0).inserted == 0);  // nothing below 1 degree
+  CHECK(untouched == tets);
+
+  const auto r = mesh::split_slivers(P, tets, region, kept, 20.0);
+  const double after = mesh::tet_stats(P, tets).min_dihedral_deg;
+  MESSAGE("min dihedral " << before << " -> " << after << " deg, " << tets.size() << " tets, new vertex at "
+                          << P.back().x << " " << P.back().y << " " << P.back().z);
+  CHECK(r.inserted == 1);
+  CHECK(r.failed == 0);
+  REQUIRE(P.size() == 6);
+  CHECK(before < 12);
+  CHECK(after > before + 10);
+  CHECK(tets.size() == 6);  // the cone over the cavity's six boundary faces
+  REQUIRE(region.size() == tets.size());
+  double new_volume = 0;
+  for (const auto& t : tets) {
+    CHECK((orient(t) > 0) == positive);
+    new_volume += std::fabs(orient(t)) / 6;
+  }
+  CHECK(new_volume == doctest::Approx(volume).epsilon(1e-9));
+  for (int g : region) CHECK(g == 7);
+  // The kept triangles are still faces of the mesh, each of exactly one tet.
+  for (auto f : kept) {
+    std::sort(f.begin(), f.end());
+    int owners = 0;
+    for (const auto& t : tets) {
+      int shared = 0;
+      for (uint32_t v : t) shared += int(std::find(f.begin(), f.end(), v) != f.end());
+      owners += shared == 3;
+    }
+    CHECK(owners == 1);
+  }
+}
