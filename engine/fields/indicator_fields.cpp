@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numbers>
+#include <array>
 
 #include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
@@ -123,6 +125,117 @@ void tighten_field(std::vector<float>& phi, const glm::ivec3& n, const glm::dvec
   }
 }
 
+// The wedge-angle correction's data: per junction corner, the labels of the voxels within kAngleBall voxels of the
+// corner point and the offset each label's field gets there, amplitude * k(2 pi * share) (see the header).
+constexpr double kAngleBall = 3.0;
+constexpr int kMaxCornerLabels = 8;
+struct JunctionAngles {
+  struct Corner {
+    std::array<uint16_t, kMaxCornerLabels> label{};
+    std::array<float, kMaxCornerLabels> offset{};
+    int count = 0;
+  };
+  std::vector<Corner> corners;
+};
+
+JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const std::vector<glm::ivec3>& corners,
+                               double amplitude) {
+  const double h = grid.min_spacing();
+  // The shares are taken around the mean of the junction corners within two voxels rather than around the corner
+  // itself: a staircase of corners zigzags up to a voxel off the curve, and a ball a voxel off a wedge's apex gets
+  // a share that is wrong by about 2 / (pi * radius).
+  std::vector<uint8_t> is_corner(grid.voxel_count(), 0);
+  for (const auto& c : corners) is_corner[grid.index(c.x, c.y, c.z)] = 1;
+  const glm::ivec3 reach = glm::ivec3(glm::ceil(kAngleBall * h / grid.spacing)) + 2;
+  JunctionAngles out;
+  out.corners.resize(corners.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, corners.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t ci = r.begin(); ci < r.end(); ++ci) {
+      auto& c = out.corners[ci];
+      const glm::ivec3 k0 = corners[ci];
+      glm::dvec3 mean(0.0);
+      int found = 0;
+      for (int z = -2; z <= 2; ++z)
+        for (int y = -2; y <= 2; ++y)
+          for (int x = -2; x <= 2; ++x) {
+            const glm::ivec3 q = k0 + glm::ivec3(x, y, z);
+            if (glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, grid.dims))) continue;
+            if (x * x + y * y + z * z > 4 || !is_corner[grid.index(q.x, q.y, q.z)]) continue;
+            mean += glm::dvec3(q) + 0.5;
+            ++found;
+          }
+      const glm::dvec3 centre = mean / double(std::max(found, 1));  // voxel-index coordinates
+      std::array<int, kMaxCornerLabels> counts{};
+      int total = 0;
+      const glm::ivec3 lo = glm::max(k0 - reach, glm::ivec3(0)), hi = glm::min(k0 + reach, grid.dims - 1);
+      for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+          for (int x = lo.x; x <= hi.x; ++x) {
+            if (glm::length((glm::dvec3(x, y, z) - centre) * grid.spacing) > kAngleBall * h) continue;
+            const uint16_t l = labels[grid.index(x, y, z)];
+            int a = 0;
+            while (a < c.count && c.label[size_t(a)] != l) ++a;
+            if (a == c.count) {
+              if (c.count == kMaxCornerLabels) continue;  // a ninth label near one corner: left out of the shares
+              c.label[size_t(c.count++)] = l;
+            }
+            ++counts[size_t(a)];
+            ++total;
+          }
+      for (int a = 0; a < c.count; ++a) {
+        const double half_angle = std::numbers::pi * double(counts[size_t(a)]) / double(std::max(total, 1));
+        c.offset[size_t(a)] = float(-amplitude * (half_angle - std::numbers::pi / 2 - std::cos(half_angle)) / std::numbers::pi);
+      }
+    }
+  });
+  return out;
+}
+
+// Adds the wedge-angle correction of one material to its field (a crop at `lo` of the volume): the corners' offsets
+// for this label, averaged with weights (1 - (d/R)^2)^2 over corners within R = fade + 1.5 voxels, times a fade that is
+// 1 within a voxel of a junction and 0 beyond fade + 1 voxel. Voxels keep their sign; values at the band edge stay.
+void apply_junction_correction(std::vector<float>& phi, const std::vector<uint8_t>& inside, const glm::ivec3& lo,
+                               const Grid& cgrid, uint16_t label, const std::vector<glm::ivec3>& corners,
+                               const JunctionAngles& angles, const std::vector<float>& junction_distance,
+                               const Grid& grid, double fade, double band, float keep) {
+  const double h = grid.min_spacing();
+  const double radius = fade + 1.5 * h;
+  const glm::ivec3 reach = glm::ivec3(glm::ceil(radius / grid.spacing)) + 1;
+  const glm::ivec3 n = cgrid.dims;
+  std::vector<float> num(cgrid.voxel_count(), 0.0f), den(cgrid.voxel_count(), 0.0f);
+  for (size_t ci = 0; ci < corners.size(); ++ci) {
+    const auto& c = angles.corners[ci];
+    int a = 0;
+    while (a < c.count && c.label[size_t(a)] != label) ++a;
+    if (a == c.count) continue;
+    const float offset = c.offset[size_t(a)];
+    const glm::dvec3 centre = glm::dvec3(corners[ci] - lo) + 0.5;  // crop voxel-index coordinates
+    const glm::ivec3 v0 = glm::max(corners[ci] - lo - reach, glm::ivec3(0));
+    const glm::ivec3 v1 = glm::min(corners[ci] - lo + reach, n - 1);
+    for (int k = v0.z; k <= v1.z; ++k)
+      for (int j = v0.y; j <= v1.y; ++j)
+        for (int i = v0.x; i <= v1.x; ++i) {
+          const double d = glm::length((glm::dvec3(i, j, k) - centre) * grid.spacing) / radius;
+          if (d >= 1) continue;
+          const float w = float((1 - d * d) * (1 - d * d));
+          const size_t v = (size_t(k) * size_t(n.y) + size_t(j)) * size_t(n.x) + size_t(i);
+          num[v] += w * offset;
+          den[v] += w;
+        }
+  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, cgrid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      if (den[v] <= 0) continue;
+      const glm::ivec3 g = lo + cgrid.voxel(v);
+      const double dj = std::sqrt(double(junction_distance[grid.index(g.x, g.y, g.z)]));
+      // Fields clamped at the band edge stay there: a raised -band would tie with other materials' far values.
+      const double w = (1 - smoothstep01((dj - h) / fade)) * std::clamp((band - std::fabs(double(phi[v]))) / h, 0.0, 1.0);
+      phi[v] = float(std::clamp(phi[v] + w * num[v] / den[v], -band, band));
+      phi[v] = inside[v] ? std::max(phi[v], keep) : std::min(phi[v], -keep);
+    }
+  });
+}
+
 }  // namespace
 
 int IndicatorFields::material_at(const glm::dvec3& ijk) const {
@@ -166,6 +279,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // smoothing each material's distance field alone rounds every wedge-shaped edge of a material and so moves
   // triple curves and quadruple points (about 0.5 voxel into the convex side at sigma = 1).
   std::vector<float> junction_distance;
+  std::vector<glm::ivec3> junction_corners;  // lowest voxel of each 2x2x2 block with three or more labels
   if (options.junction_fade > 0) {
     junction_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
     for (int k = 0; k + 1 < grid.dims.z; ++k)
@@ -173,11 +287,15 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         for (int i = 0; i + 1 < grid.dims.x; ++i) {
           uint16_t seen[8];
           if (grid.corner_labels(i, j, k, [&](size_t v) { return labels[v]; }, seen) < 3) continue;
+          junction_corners.emplace_back(i, j, k);
           for (int c = 0; c < 8; ++c) junction_distance[grid.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] = 0;
         }
     squared_distance_transform(grid, junction_distance);
   }
   const double fade = options.junction_fade * h;
+  const JunctionAngles angles = options.junction_correction > 0 && !junction_corners.empty()
+                                    ? junction_angles(grid, labels, junction_corners, options.junction_correction * h)
+                                    : JunctionAngles{};
   const double sigma_phys = options.smoothing_sigma * h;
   const double tighten_r = options.tighten_radius * h;
   const int margin = int(std::ceil(std::max(options.band + 3.0 * options.smoothing_sigma, 2.0 * options.tighten_radius))) + 2;
@@ -287,6 +405,9 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         }
       });
     }
+
+    if (!angles.corners.empty()) apply_junction_correction(phi, inside, crop.lo, cgrid, label, junction_corners, angles,
+                                                           junction_distance, grid, fade, band, keep);
 
     uint64_t moved = 0;
     if (tighten_r > 0) {

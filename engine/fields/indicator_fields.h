@@ -13,6 +13,15 @@
 //  - the flow fades out near junctions (where the smoothing turns into twicing), so triple curves and quadruple
 //    points stay put;
 //  - the voxel centres that did change material are counted per material (tightened_voxels).
+// Even so, smoothing and interpolating a distance field round a material's wedge-shaped edge: at a triple curve where
+// a material's flat side meets two 90-degree edges (a ball cut by a plane), the flat material grows into the wedges
+// by about 0.25 voxel. A Gaussian lowers a signed distance field at the apex of a wedge of angle a by sigma * sqrt(pi/2)
+// * k(a), k(a) = (a/2 - pi/2 - cos(a/2)) / pi, which is 0 for a flat side, negative for a convex edge and positive for a
+// concave one. With junction_correction > 0, near junctions each field is raised by junction_correction * k(a), with
+// a = 2 pi times the share of the material's voxels in a 3-voxel ball around the junction; the correction fades out
+// over junction_fade. Off by default: at 0.6 it moves the wedge ball's triple curves from a mean 0.30 to 0.24 voxel
+// off the analytic ones (max at 40^3 0.83 -> 0.66), but the interfaces it bends near the curves draw 15-40% more
+// particles there and cost mean radius ratio (0.944 -> 0.934 on the 48^3 demo) and, once, a sliver.
 // Values are physical distances (local units), clamped to +-band outside a narrow band, and stored in sparse bricks.
 #include <cstdint>
 #include <string>
@@ -29,6 +38,7 @@ struct IndicatorOptions {
   double junction_fade = 3.0;    // voxels: this close to where three or more labels meet, the smoothing turns into
                                  // twicing (below) to keep triple curves in place (0: plain smoothing everywhere)
   double junction_sigma = 0.7;   // voxels: sigma of the twiced Gaussian used at junctions
+  double junction_correction = 0;  // voxels: amplitude of the wedge-angle correction at junctions (below; 0: off)
   double tighten_radius = 1.0;   // r, in voxels of the smallest spacing: smallest curvature radius kept (0: off)
   int tighten_iterations = 0;    // flow steps (0: automatic, enough to move r)
 };

@@ -2,6 +2,7 @@
 // triple curves, 4 quadruple points), and the WENO4 lookup reference.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -12,6 +13,31 @@
 
 using namespace cpmesh;
 using namespace cpmesh::fields;
+
+namespace {
+
+// Mean and largest distance of the embedding's stored triple-curve closest points to the analytic curves.
+std::pair<double, double> curve_errors(const test::FieldsVolume& wb, const IndicatorFields& fields,
+                                       const ClosestPointEmbedding& E) {
+  double worst = 0, sum = 0;
+  size_t n = 0;
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == ClosestPointEmbedding::kEmpty) continue;
+    const Feature& f = E.features[E.keys[slot] & 0xffff];
+    if (f.kind != FeatureKind::triple_curve) continue;
+    for (int q = 0; q < 8; ++q) {
+      const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * 8 + size_t(q)]));
+      const double d = test::distance_to_curve(
+          wb.junctions, {fields.labels[f.materials[0]], fields.labels[f.materials[1]], fields.labels[f.materials[2]]}, cp);
+      worst = std::max(worst, d);
+      sum += d;
+      ++n;
+    }
+  }
+  return {sum / double(std::max<size_t>(n, 1)), worst};
+}
+
+}  // namespace
 
 TEST_CASE("WENO4 reproduces quadratics exactly and does not overshoot a step") {
   for (float t : {0.0f, 0.25f, 0.5f, 0.9f}) {
@@ -81,26 +107,12 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
   CHECK(curves == 7);             // material sets: (1,2,3) meets in two separate curves
   CHECK(curve_components == 8);
   // Closest points stored for the triple curves lie on the analytic curves.
-  double worst_curve = 0, sum_curve = 0;
-  size_t n_curve = 0;
-  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
-    if (E.keys[slot] == ClosestPointEmbedding::kEmpty) continue;
-    const Feature& f = E.features[E.keys[slot] & 0xffff];
-    if (f.kind != FeatureKind::triple_curve) continue;
-    for (int q = 0; q < 8; ++q) {
-      const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * 8 + size_t(q)]));
-      const double d = test::distance_to_curve(
-          wb.junctions, {fields.labels[f.materials[0]], fields.labels[f.materials[1]], fields.labels[f.materials[2]]}, cp);
-      worst_curve = std::max(worst_curve, d);
-      sum_curve += d;
-      ++n_curve;
-    }
-  }
-  MESSAGE("triple-curve closest points: distance to the analytic curves mean " << sum_curve / double(n_curve)
-                                                                              << ", max " << worst_curve << " voxel");
+  const auto [mean_curve, worst_curve] = curve_errors(wb, fields, E);
+  MESSAGE("triple-curve closest points: distance to the analytic curves mean " << mean_curve << ", max " << worst_curve
+                                                                              << " voxel");
   // Issue 5 asks for 0.75 voxel at most: measured mean 0.30, max 0.67 here (0.70 at 64^3 and 96^3, but 0.83 at 40^3
   // and 128^3: the curves where a material's flat side meets two wedge edges still move ~0.25 voxel on average).
-  CHECK(sum_curve / double(n_curve) < 0.4);
+  CHECK(mean_curve < 0.4);
   CHECK(worst_curve < 0.75);
   REQUIRE(E.quadruple_points.size() == 4);
   REQUIRE(wb.junctions.quadruple_points.size() == 4);
@@ -111,4 +123,45 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
     MESSAGE("quadruple point error " << best << " voxel");
     CHECK(best < 0.5);  // issue 5 asks for 1 voxel; 0.15 to 0.21 measured
   }
+}
+
+TEST_CASE("wedge ball: the junction correction levels the fields at the triple curves and moves them to the analytic ones") {
+  // Smoothing and interpolation lower a field at a material's convex edge, so where a flat side meets two wedge
+  // edges (the ball's rim) the flat material grows into the wedges. At 40^3 that leaves curve points 0.83 voxel off.
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 40);
+  IndicatorOptions plain, corrected;
+  corrected.junction_correction = 0.6;
+  const auto F0 = build_indicator_fields(wb.grid, wb.labels.data(), plain);
+  const auto F1 = build_indicator_fields(wb.grid, wb.labels.data(), corrected);
+  // On the analytic rim curves (background 0 and two wedges) away from the poles, the three fields should all be 0:
+  // the spread (largest minus smallest) measures the pull.
+  auto spread = [&](const IndicatorFields& F) {
+    double sum = 0;
+    size_t n = 0;
+    for (const auto& c : wb.junctions.triple_curves) {
+      if (c.materials[0] != 0) continue;
+      for (size_t i = c.points.size() / 4; i < 3 * c.points.size() / 4; ++i) {
+        const glm::dvec3 x(c.points[i][0], c.points[i][1], c.points[i][2]);
+        double lo = 1e9, hi = -1e9;
+        for (uint16_t label : c.materials) {
+          const size_t m = size_t(std::find(F.labels.begin(), F.labels.end(), label) - F.labels.begin());
+          const double v = F.fields[m].sample_cubic_local(x);
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        }
+        sum += hi - lo;
+        ++n;
+      }
+    }
+    return sum / double(n);
+  };
+  const double s0 = spread(F0), s1 = spread(F1);
+  const auto [mean0, max0] = curve_errors(wb, F0, build_closest_point_embedding(F0));
+  const auto [mean1, max1] = curve_errors(wb, F1, build_closest_point_embedding(F1));
+  MESSAGE("field spread on the rim curves " << s0 << " -> " << s1 << " voxel; curve points mean " << mean0 << " -> "
+                                            << mean1 << ", max " << max0 << " -> " << max1 << " voxel");
+  CHECK(s1 < 0.75 * s0);  // measured 0.48 -> 0.32
+  CHECK(mean1 < 0.9 * mean0);  // measured 0.31 -> 0.25
+  CHECK(max1 < 0.75);     // measured 0.83 -> 0.66
+  CHECK(max1 < max0);
 }
