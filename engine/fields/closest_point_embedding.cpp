@@ -18,15 +18,21 @@ namespace {
 using MaterialSet = std::array<uint16_t, 4>;
 constexpr uint16_t kNone = 0xffff;
 
+// The fields of materials m[0..count) at local x, with their gradients in index units.
+void sample_feature_fields(const IndicatorFields& F, const int* m, int count, const glm::dvec3& x, double* f,
+                           glm::dvec3* grad) {
+  const BrickField* fields[4];
+  for (int a = 0; a < count; ++a) fields[a] = &F.fields[size_t(m[a])];
+  BrickField::sample_cubic_many(fields, count, x / F.grid.spacing, f, grad);
+}
+
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
 bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol) {
   const double max_step = F.grid.min_spacing();
-  const BrickField* fields[4];
-  for (int a = 0; a <= k; ++a) fields[a] = &F.fields[size_t(m[a])];
   for (int it = 0; it < iterations; ++it) {
     double f[4];
     glm::dvec3 grad[4];
-    BrickField::sample_cubic_many(fields, k + 1, x / F.grid.spacing, f, grad);
+    sample_feature_fields(F, m, k + 1, x, f, grad);
     glm::dvec3 J[3];
     double g[3];
     double gmax = 0;
@@ -168,17 +174,17 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
   for (int round = 1; ok && k < 3 && round < rounds; ++round) {
     // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
     // rather than the end of the gradient path; every round ends with a converged Newton solve.
-    glm::dvec3 g0, ga, gb;
-    F.fields[size_t(m[0])].sample_cubic_local(x, &g0);
-    F.fields[size_t(m[1])].sample_cubic_local(x, &ga);
+    double f[4];
+    glm::dvec3 g[4];
+    sample_feature_fields(F, m, count, x, f, g);
+    for (int a = 0; a < count; ++a) g[a] /= F.grid.spacing;
     const glm::dvec3 d = x0 - x;
     glm::dvec3 next;
     if (k == 1) {
-      const glm::dvec3 n = glm::normalize(g0 - ga);
+      const glm::dvec3 n = glm::normalize(g[0] - g[1]);
       next = x + d - n * glm::dot(d, n);
     } else {
-      F.fields[size_t(m[2])].sample_cubic_local(x, &gb);
-      const glm::dvec3 t = glm::normalize(glm::cross(g0 - ga, g0 - gb));
+      const glm::dvec3 t = glm::normalize(glm::cross(g[0] - g[1], g[0] - g[2]));
       next = x + t * glm::dot(d, t);
     }
     if (glm::length(next - x) < tol) break;

@@ -139,7 +139,7 @@ struct JunctionAngles {
 };
 
 JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const std::vector<glm::ivec3>& corners,
-                               double amplitude) {
+                               const std::vector<uint8_t>& corner_labels, double amplitude) {
   const double h = grid.min_spacing();
   // The shares are taken around the mean of the junction corners within two voxels rather than around the corner
   // itself: a staircase of corners zigzags up to a voxel off the curve, and a ball a voxel off a wedge's apex gets
@@ -152,6 +152,9 @@ JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const s
   tbb::parallel_for(tbb::blocked_range<size_t>(0, corners.size()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t ci = r.begin(); ci < r.end(); ++ci) {
       auto& c = out.corners[ci];
+      // Where four or more labels meet, no wedge angle describes a material: those corners give no offset, and the
+      // offsets there are the average of the triple curves' around them.
+      if (corner_labels[ci] > 3) continue;
       const glm::ivec3 k0 = corners[ci];
       glm::dvec3 mean(0.0);
       int found = 0;
@@ -191,49 +194,59 @@ JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const s
   return out;
 }
 
-// Adds the wedge-angle correction of one material to its field (a crop at `lo` of the volume): the corners' offsets
-// for this label, averaged with weights (1 - (d/R)^2)^2 over corners within R = fade + 1.5 voxels, times a fade that is
-// 1 within a voxel of a junction and 0 beyond fade + 1 voxel. Voxels keep their sign; values at the band edge stay.
-void apply_junction_correction(std::vector<float>& phi, const std::vector<uint8_t>& inside, const glm::ivec3& lo,
-                               const Grid& cgrid, uint16_t label, const std::vector<glm::ivec3>& corners,
-                               const JunctionAngles& angles, const std::vector<float>& junction_distance,
-                               const Grid& grid, double fade, double band, float keep) {
+// The wedge-angle offset of one material near junctions, as a sparse field (0 elsewhere): the corners' offsets for
+// this label, averaged with weights (1 - (d/R)^2)^2 over corners within R = fade + 1.5 voxels, times a fade that is
+// 1 within a voxel of a junction and 0 beyond fade + 1 voxel, and 0 where the field is at the band's edge.
+BrickField junction_offset(uint16_t label, const BrickField& field, double band, const std::vector<glm::ivec3>& corners,
+                           const JunctionAngles& angles, const std::vector<float>& junction_distance, const Grid& grid,
+                           double fade) {
   const double h = grid.min_spacing();
   const double radius = fade + 1.5 * h;
   const glm::ivec3 reach = glm::ivec3(glm::ceil(radius / grid.spacing)) + 1;
-  const glm::ivec3 n = cgrid.dims;
-  std::vector<float> num(cgrid.voxel_count(), 0.0f), den(cgrid.voxel_count(), 0.0f);
+  BrickField out(grid, 0.0f);
+  // Sums per touched brick: sparse, since junctions are curves.
+  std::map<size_t, std::pair<std::vector<float>, std::vector<float>>> sums;  // brick index -> (num, den)
+  const glm::ivec3 bdims = out.brick_dims();
   for (size_t ci = 0; ci < corners.size(); ++ci) {
     const auto& c = angles.corners[ci];
     int a = 0;
     while (a < c.count && c.label[size_t(a)] != label) ++a;
     if (a == c.count) continue;
     const float offset = c.offset[size_t(a)];
-    const glm::dvec3 centre = glm::dvec3(corners[ci] - lo) + 0.5;  // crop voxel-index coordinates
-    const glm::ivec3 v0 = glm::max(corners[ci] - lo - reach, glm::ivec3(0));
-    const glm::ivec3 v1 = glm::min(corners[ci] - lo + reach, n - 1);
+    const glm::dvec3 centre = glm::dvec3(corners[ci]) + 0.5;  // voxel-index coordinates
+    const glm::ivec3 v0 = glm::max(corners[ci] - reach, glm::ivec3(0));
+    const glm::ivec3 v1 = glm::min(corners[ci] + reach, grid.dims - 1);
     for (int k = v0.z; k <= v1.z; ++k)
       for (int j = v0.y; j <= v1.y; ++j)
         for (int i = v0.x; i <= v1.x; ++i) {
           const double d = glm::length((glm::dvec3(i, j, k) - centre) * grid.spacing) / radius;
           if (d >= 1) continue;
           const float w = float((1 - d * d) * (1 - d * d));
-          const size_t v = (size_t(k) * size_t(n.y) + size_t(j)) * size_t(n.x) + size_t(i);
-          num[v] += w * offset;
-          den[v] += w;
+          const glm::ivec3 b = glm::ivec3(i, j, k) / BrickField::kBrick, o = glm::ivec3(i, j, k) - b * BrickField::kBrick;
+          auto& [num, den] = sums[(size_t(b.z) * size_t(bdims.y) + size_t(b.y)) * size_t(bdims.x) + size_t(b.x)];
+          if (num.empty()) num.assign(BrickField::kBrickVoxels, 0.0f), den.assign(BrickField::kBrickVoxels, 0.0f);
+          const size_t q = size_t((o.z * BrickField::kBrick + o.y) * BrickField::kBrick + o.x);
+          num[q] += w * offset;
+          den[q] += w;
         }
   }
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, cgrid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v < r.end(); ++v) {
-      if (den[v] <= 0) continue;
-      const glm::ivec3 g = lo + cgrid.voxel(v);
-      const double dj = std::sqrt(double(junction_distance[grid.index(g.x, g.y, g.z)]));
-      // Fields clamped at the band edge stay there: a raised -band would tie with other materials' far values.
-      const double w = (1 - smoothstep01((dj - h) / fade)) * std::clamp((band - std::fabs(double(phi[v]))) / h, 0.0, 1.0);
-      phi[v] = float(std::clamp(phi[v] + w * num[v] / den[v], -band, band));
-      phi[v] = inside[v] ? std::max(phi[v], keep) : std::min(phi[v], -keep);
+  for (const auto& [bi, nd] : sums) {
+    const glm::ivec3 b(int(bi % size_t(bdims.x)), int(bi / size_t(bdims.x) % size_t(bdims.y)),
+                       int(bi / (size_t(bdims.x) * size_t(bdims.y))));
+    out.allocate(b);
+    for (int q = 0; q < BrickField::kBrickVoxels; ++q) {
+      if (nd.second[size_t(q)] <= 0) continue;
+      const glm::ivec3 v = b * BrickField::kBrick + glm::ivec3(q % BrickField::kBrick, q / BrickField::kBrick % BrickField::kBrick,
+                                                               q / (BrickField::kBrick * BrickField::kBrick));
+      if (!grid.inside(v.x, v.y, v.z)) continue;
+      const double dj = std::sqrt(double(junction_distance[grid.index(v.x, v.y, v.z)]));
+      // None where the field is clamped at the band's edge: a raised -band would tie with other materials' far values.
+      const double w = (1 - smoothstep01((dj - h) / fade)) *
+                       std::clamp((band - std::fabs(double(field.at(v.x, v.y, v.z)))) / h, 0.0, 1.0);
+      out.set(v.x, v.y, v.z, float(w * nd.first[size_t(q)] / nd.second[size_t(q)]));
     }
-  });
+  }
+  return out;
 }
 
 }  // namespace
@@ -254,6 +267,7 @@ int IndicatorFields::material_at(const glm::dvec3& ijk) const {
 size_t IndicatorFields::memory_bytes() const {
   size_t total = 0;
   for (const auto& f : fields) total += f.memory_bytes();
+  for (const auto& f : junction_offsets) total += f.memory_bytes();
   return total;
 }
 
@@ -280,21 +294,24 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // triple curves and quadruple points (about 0.5 voxel into the convex side at sigma = 1).
   std::vector<float> junction_distance;
   std::vector<glm::ivec3> junction_corners;  // lowest voxel of each 2x2x2 block with three or more labels
+  std::vector<uint8_t> junction_corner_labels;  // how many
   if (options.junction_fade > 0) {
     junction_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
     for (int k = 0; k + 1 < grid.dims.z; ++k)
       for (int j = 0; j + 1 < grid.dims.y; ++j)
         for (int i = 0; i + 1 < grid.dims.x; ++i) {
           uint16_t seen[8];
-          if (grid.corner_labels(i, j, k, [&](size_t v) { return labels[v]; }, seen) < 3) continue;
+          const int present = grid.corner_labels(i, j, k, [&](size_t v) { return labels[v]; }, seen);
+          if (present < 3) continue;
           junction_corners.emplace_back(i, j, k);
+          junction_corner_labels.push_back(uint8_t(present));
           for (int c = 0; c < 8; ++c) junction_distance[grid.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] = 0;
         }
     squared_distance_transform(grid, junction_distance);
   }
   const double fade = options.junction_fade * h;
   const JunctionAngles angles = options.junction_correction > 0 && !junction_corners.empty()
-                                    ? junction_angles(grid, labels, junction_corners, options.junction_correction * h)
+                                    ? junction_angles(grid, labels, junction_corners, junction_corner_labels, options.junction_correction * h)
                                     : JunctionAngles{};
   const double sigma_phys = options.smoothing_sigma * h;
   const double tighten_r = options.tighten_radius * h;
@@ -406,9 +423,6 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       });
     }
 
-    if (!angles.corners.empty()) apply_junction_correction(phi, inside, crop.lo, cgrid, label, junction_corners, angles,
-                                                           junction_distance, grid, fade, band, keep);
-
     uint64_t moved = 0;
     if (tighten_r > 0) {
       const int iterations = options.tighten_iterations > 0 ? options.tighten_iterations
@@ -452,6 +466,29 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
                 field.set(i, j, k, in_crop ? phi[(size_t(c.z) * size_t(n.y) + size_t(c.y)) * size_t(n.x) + size_t(c.x)] : -band);
               }
         }
+    if (!angles.corners.empty()) {
+      // The wedge-angle offset goes into the field itself, so interfaces, curves, points and the partition all move
+      // together; every voxel keeps its sign. The offsets are kept for the sizing field (sizing_field.h).
+      BrickField offset = junction_offset(label, field, band, junction_corners, angles, junction_distance, grid, fade);
+      const glm::ivec3 bd = offset.brick_dims();
+      for (int bz = 0; bz < bd.z; ++bz)
+        for (int by = 0; by < bd.y; ++by)
+          for (int bx = 0; bx < bd.x; ++bx) {
+            const glm::ivec3 b(bx, by, bz);
+            if (!offset.allocated(b)) continue;
+            const glm::ivec3 v0 = b * BrickField::kBrick, v1 = glm::min(v0 + BrickField::kBrick, grid.dims) - 1;
+            for (int k = v0.z; k <= v1.z; ++k)
+              for (int j = v0.y; j <= v1.y; ++j)
+                for (int i = v0.x; i <= v1.x; ++i) {
+                  const float o = offset.at(i, j, k);
+                  if (o == 0) continue;
+                  const float f = field.at(i, j, k);
+                  const float g = std::clamp(f + o, -band, band);
+                  field.set(i, j, k, f > 0 ? std::max(g, keep) : std::min(g, -keep));
+                }
+          }
+      out.junction_offsets.push_back(std::move(offset));
+    }
     out.fields.push_back(std::move(field));
   }
   return out;

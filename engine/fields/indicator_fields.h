@@ -17,12 +17,14 @@
 // a material's flat side meets two 90-degree edges (a ball cut by a plane), the flat material grows into the wedges
 // by about 0.25 voxel. A Gaussian lowers a signed distance field at the apex of a wedge of angle a by sigma * sqrt(pi/2)
 // * k(a), k(a) = (a/2 - pi/2 - cos(a/2)) / pi, which is 0 for a flat side, negative for a convex edge and positive for a
-// concave one. With junction_correction > 0, near junctions each field is raised by junction_correction * k(a), with
-// a = 2 pi times the share of the material's voxels in a 3-voxel ball around the junction; the correction fades out
-// over junction_fade. Off by default: at 0.6 it moves the wedge ball's triple curves from a mean 0.30 to 0.24 voxel
-// off the analytic ones (max at 40^3 0.83 -> 0.66), but the interfaces it bends near the curves draw 15-40% more
-// particles there and cost mean radius ratio (0.944 -> 0.934 on the 48^3 demo) and, once, a sliver.
-// Values are physical distances (local units), clamped to +-band outside a narrow band, and stored in sparse bricks.
+// concave one. So each material's field is raised by o_m = -junction_correction * k(a) near junctions (a = 2 pi times
+// the share of its voxels in a 3-voxel ball around the mean nearby 3-label junction corner; fading out over
+// junction_fade; every voxel keeps its sign). The offsets bend the interfaces back near the curves; they are also
+// kept apart (junction_offsets) so the sizing field can measure thickness without them.
+// Off by default. At 0.6, on the wedge ball, the embedding's curve points go from mean 0.30 to 0.24-0.25 voxel off the
+// analytic curves (max 0.83 -> 0.66 at 40^3, 0.83 -> 0.82 at 128^3), but the sizing field reads the bends as
+// curvature: 8-17% more particles, mean radius ratio 0.944 -> 0.933 on the 48^3 demo, and the mesh's curve edges are
+// no closer at their worst (max 0.52 -> 0.55).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -48,6 +50,7 @@ struct IndicatorFields {
   double band = 0;                   // physical half-width of the stored band
   std::vector<uint16_t> labels;      // label value of each material, ascending
   std::vector<BrickField> fields;    // f_m, same order as labels
+  std::vector<BrickField> junction_offsets;  // o_m, already added to fields (0 away from junctions); empty when off
   std::vector<uint64_t> voxel_counts;
   std::vector<uint64_t> tightened_voxels;  // per material: voxel centres the tightening moved out of or into it
   uint64_t protected_voxels = 0;           // voxels in parts thinner than ~2r, left untightened

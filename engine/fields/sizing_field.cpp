@@ -22,19 +22,32 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local) {
 // drive h to zero along every triple curve; half the thickness along the normal measures thin parts (a layer of
 // thickness t gives t/2, the distance to its medial plane) without that. Thicker than the stored band can show:
 // infinity (does not limit h).
-double half_thickness(const BrickField& f, const glm::dvec3& p, double band, double step) {
-  const glm::dvec3 g = gradient(f, p);
+double half_thickness(const BrickField& field, const BrickField* offset, const glm::dvec3& p, double band, double step) {
+  // The field without its junction offset (indicator_fields.h): the offsets bend interfaces near triple curves by a
+  // fraction of a voxel, enough to turn a walk's exit against it, and that is no thin part.
+  auto value = [&](const glm::dvec3& x, glm::dvec3* g) {
+    double v = field.sample_cubic_local(x, g);
+    if (offset) {
+      glm::dvec3 og;
+      v -= offset->sample_cubic_local(x, g ? &og : nullptr);
+      if (g) *g -= og;
+    }
+    return v;
+  };
+  glm::dvec3 g;
+  value(p, &g);
   const double len = glm::length(g);
   constexpr double none = 1e300;
   if (len < 1e-12) return none;
   const glm::dvec3 n = g / len;  // into the material
   for (double t = step; t <= 2.0 * band; t += step) {
-    const double v = f.sample_cubic_local(p + t * n);
+    const double v = value(p + t * n, nullptr);
     if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
     if (v < 0) {
       // A thin part's far side faces back (its normal opposes ours); a boundary met at an angle is the next patch
       // of a junction crease, which is sampled by the junction's own particles and does not make the part thin.
-      const glm::dvec3 exit = gradient(f, p + t * n);
+      glm::dvec3 exit;
+      value(p + t * n, &exit);
       const double exit_len = glm::length(exit);
       if (exit_len > 1e-12 && glm::dot(exit / exit_len, n) < -0.5) return 0.5 * (t - 0.5 * step);
       return none;
@@ -148,7 +161,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
           }
       shape[b] = fitted_shape(p, glm::normalize(g), points);
       const double step = 0.25 * grid.min_spacing();
-      ridge[b] = std::min(half_thickness(fa, p, F.band, step), half_thickness(fb, p, F.band, step));
+      const bool offsets = !F.junction_offsets.empty();
+      ridge[b] = std::min(half_thickness(fa, offsets ? &F.junction_offsets[feature.materials[0]] : nullptr, p, F.band, step),
+                          half_thickness(fb, offsets ? &F.junction_offsets[feature.materials[1]] : nullptr, p, F.band, step));
     }
   });
 
