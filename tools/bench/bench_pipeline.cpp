@@ -2,7 +2,7 @@
 // device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
-//                         [--only-surfaces] [--max-size H]
+//                         [--only-surfaces] [--max-size H] [--min-size H]
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
 // directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral.
 // Junction error (wedge ball): distance of the triple-curve edges' midpoints to the analytic curves, mean and max in
@@ -44,13 +44,16 @@ int main(int argc, char** argv) {
   std::string device;
   std::vector<std::string> volumes = {"wedge-ball:64", "wedge-ball:128", "wedge-ball:256", "shells:128"};
   bool only_surfaces = false;
-  double max_size = 0;
+  double max_size = 0, min_size = 0;
   app.add_option("--device", device, "Vulkan device index or name substring");
   app.add_option("--volumes", volumes, "shape:size (sphere, wedge-ball, slabs, shells) or volume files")
       ->delimiter(',')
       ->capture_default_str();
   app.add_flag("--only-surfaces", only_surfaces, "Skip the volume mesh");
   app.add_option("--max-size", max_size, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
+  app.add_option("--min-size", min_size,
+                 "Smallest h, physical units (0: a quarter voxel; thin layers ask for it, so it sets their cost)")
+      ->capture_default_str();
   double peer_facet = 1.5;
   bool no_peer = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
@@ -70,6 +73,7 @@ int main(int argc, char** argv) {
       mesh::MeshOptions options;
       options.only_surfaces = only_surfaces;
       options.fields.sizing.h_max = max_size;
+      options.fields.sizing.h_min = min_size;
       const auto t0 = std::chrono::steady_clock::now();
       const auto r = mesh::mesh_volume(ctx, volume, options);
       const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -104,7 +108,8 @@ int main(int argc, char** argv) {
           {"share_below_0_5", rep.surface.share_below_half}, {"min_dihedral_deg", rep.volume.min_dihedral_deg},
           {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
-          {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib}};
+          {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
+          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       std::cout << j.dump() << '\n';
 
