@@ -187,7 +187,8 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
       const glm::dvec3 t = glm::normalize(glm::cross(g[0] - g[1], g[0] - g[2]));
       next = x + t * glm::dot(d, t);
     }
-    if (glm::length(next - x) < tol) break;
+    // A foot point that moves less than a thousandth of a voxel is found: the embedding's accuracy is a hundredth.
+    if (glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
     if (!newton(F, m, k, y, newton_iterations, tol)) break;  // keep the last converged point
     x = y;
@@ -369,8 +370,12 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
           const double own = F.fields[size_t(m[0])].sample_cubic_local(cp, &unused);
           int intruder = -1;
           double worst = own + 1e-4 * h;
+          const glm::ivec3 nearest = glm::clamp(glm::ivec3(glm::round(cp / grid.spacing)), glm::ivec3(0), grid.dims - 1);
           for (int mm = 0; mm < M; ++mm) {
             if (std::find(m, m + count, mm) != m + count) continue;
+            // The interpolant stays within about a voxel of its nearest sample (distance fields change by at most
+            // their spacing per voxel): a material that far below cannot win here, and needs no cubic sample.
+            if (F.fields[size_t(mm)].at(nearest.x, nearest.y, nearest.z) < worst - 2.0 * h) continue;
             const double v = F.fields[size_t(mm)].sample_cubic_local(cp);
             if (v > worst) {
               worst = v;
