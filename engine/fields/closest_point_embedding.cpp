@@ -273,40 +273,25 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
                                 "WENO4 stencil reach needs indicator fields stored " + std::to_string(reach / h) +
                                 " voxels deep, but their band is " + std::to_string(F.band / h) +
                                 " voxels; raise the indicator band or use more subcells");
-  // Per block also whether any other material comes near enough to win over the feature's closest points; most
-  // blocks have none, and skip the restriction test below.
-  struct CellEntry {
-    uint64_t key;
-    bool exclusive;
-    bool operator<(const CellEntry& o) const { return key < o.key; }
-  };
-  tbb::enumerable_thread_specific<std::vector<CellEntry>> local_entries;
+  tbb::enumerable_thread_specific<std::vector<uint64_t>> local_entries;
   tbb::parallel_for(tbb::blocked_range<int>(0, grid.dims.z), [&](const tbb::blocked_range<int>& r) {
     auto& out = local_entries.local();
     std::vector<int> near;
-    int around = 0;
     for (int kk = r.begin(); kk < r.end(); ++kk)
       for (int j = 0; j < grid.dims.y; ++j)
         for (int i = 0; i < grid.dims.x; ++i) {
           near.clear();
-          around = 0;
-          for (int mm = 0; mm < M; ++mm) {
-            const float f = F.fields[size_t(mm)].at(i, j, kk);
-            if (f > -reach) near.push_back(mm);
-            if (f > -2.0 * reach) ++around;
-          }
-          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
+          for (int mm = 0; mm < M; ++mm)
+            if (F.fields[size_t(mm)].at(i, j, kk) > -reach) near.push_back(mm);
+          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int) {
             const auto it = feature_of.find(s);
-            if (it != feature_of.end())
-              out.push_back({(uint64_t(grid.index(i, j, kk)) << 16) | it->second, around == bits});
+            if (it != feature_of.end()) out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
           });
         }
   });
-  std::vector<CellEntry> entries;
-  for (auto& part : local_entries) entries.insert(entries.end(), part.begin(), part.end());
-  std::sort(entries.begin(), entries.end());
-  std::vector<uint64_t> cells(entries.size());
-  for (size_t e = 0; e < entries.size(); ++e) cells[e] = entries[e].key;
+  std::vector<uint64_t> cells;
+  for (auto& part : local_entries) cells.insert(cells.end(), part.begin(), part.end());
+  std::sort(cells.begin(), cells.end());
 
   // 4. Hash table: capacity a power of two at least twice the entries; grow until every probe run is short.
   size_t capacity = 16;
@@ -363,11 +348,9 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
           }
           project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
                              level == 0 && warm_ok ? &warm : nullptr);
-          if (level == 0 && entries[b].exclusive) break;
           int m[4];
           const int count = materials_of(feat, m);
-          glm::dvec3 unused;
-          const double own = F.fields[size_t(m[0])].sample_cubic_local(cp, &unused);
+          const double own = F.fields[size_t(m[0])].sample_cubic_local(cp);
           int intruder = -1;
           double worst = own + 1e-4 * h;
           const glm::ivec3 nearest = glm::clamp(glm::ivec3(glm::round(cp / grid.spacing)), glm::ivec3(0), grid.dims - 1);
