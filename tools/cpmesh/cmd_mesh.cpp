@@ -59,7 +59,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   add_population_options(sub, m.population);
   // TetGen's refinement is only known to end for radius-edge bounds above about 1.1 and dihedral bounds below about
   // 18 degrees (a bound of 1.1/20 ran without end on a 36^3 sphere), so tighter requests are refused.
-  sub->add_option("--max-radius-edge", m.volume.max_radius_edge, "Volume mesh: largest tet radius-edge ratio (>= 1.2)")
+  sub->add_option("--max-radius-edge", m.volume.max_radius_edge,
+                  "Volume mesh: largest tet radius-edge ratio TetGen aims at (>= 1.2); a sliver refilled around a new "
+                  "vertex may take its tets up to 1.5 times this")
       ->check(CLI::Range(1.2, 1e6))
       ->capture_default_str();
   sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle TetGen aims at, degrees (<= 18)")
