@@ -237,6 +237,10 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
     return *std::min_element(x.begin(), x.end());
   };
   auto tet_min_angle = [&](const std::array<uint32_t, 4>& t) { return min_angle(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
+  std::vector<uint32_t> bad;
+  for (uint32_t t = 0; t < tets.size(); ++t)
+    if (tet_min_angle(tets[t]) < target) bad.push_back(t);
+  if (bad.empty()) return report;  // nothing to do: no face maps
   std::unordered_set<FaceKey, FaceHash> kept_faces;
   for (const auto& f : kept) kept_faces.insert(FaceKey(f));
   // Face -> the (at most two) tets on it.
@@ -268,9 +272,6 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   if (!had_regions) region.assign(tets.size(), 0);
   std::mt19937 rng(54321);
   std::normal_distribution<double> n01;
-  std::vector<uint32_t> bad;
-  for (uint32_t t = 0; t < tets.size(); ++t)
-    if (tet_min_angle(tets[t]) < target) bad.push_back(t);
   for (uint32_t start : bad) {
     if (tets[start][0] == dead || tet_min_angle(tets[start]) >= target) continue;  // replaced or fixed meanwhile
     const bool positive = orient(P[tets[start][0]], P[tets[start][1]], P[tets[start][2]], P[tets[start][3]]) > 0;
