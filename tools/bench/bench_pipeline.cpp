@@ -2,15 +2,17 @@
 // device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
-//                         [--only-surfaces] [--max-size H] [--min-size H]
+//                         [--only-surfaces] [--max-size H] [--min-size H] [--no-peer] [--peer-match]
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
-// directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral.
+// directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral;
+// with --peer-match more CGAL rows, at facet sizes closing in on cpmesh's triangle count.
 // Junction error (wedge ball): distance of the triple-curve edges' midpoints to the analytic curves, mean and max in
 // voxels, for both. The scaling table is cpmesh-bench-particles --scaling.
 
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <cstdio>
@@ -55,9 +57,12 @@ int main(int argc, char** argv) {
                  "Smallest h, physical units (0: a quarter voxel; thin layers ask for it, so it sets their cost)")
       ->capture_default_str();
   double peer_facet = 1.5;
-  bool no_peer = false;
+  bool no_peer = false, peer_match = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
   app.add_flag("--no-peer", no_peer, "Skip the CGAL peer even where it was built");
+  app.add_flag("--peer-match", peer_match,
+               "Run the CGAL peer again at the facet size that gives about cpmesh's triangle count (rows marked "
+               "'='; up to three runs, until within 15%)");
   CLI11_PARSE(app, argc, argv);
   try {
     gpu::Context ctx(gpu::ContextOptions{device, false, false});
@@ -116,29 +121,49 @@ int main(int argc, char** argv) {
       // The peer, in a child process (its own memory, its own failures).
       const auto peer = std::filesystem::read_symlink("/proc/self/exe").parent_path() / "cpmesh-peer-cgal";
       if (no_peer || !std::filesystem::exists(peer)) continue;
-      const std::string command = peer.string() + " '" + spec + "' --facet-size " + std::to_string(peer_facet);
-      std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-      std::string line;
-      char buffer[4096];
-      while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) line += buffer;
-      try {
-        const auto pj = nlohmann::json::parse(line);
-        std::printf("%-16s", ("  CGAL " + std::to_string(peer_facet).substr(0, 4)).c_str());
-        for (int k = 0; k < 7; ++k) std::printf(" %9s", "");
-        bench::JunctionError pje;
-        if (pj.contains("junction_error")) {
-          pje.edges = pj["junction_error"]["edges"].get<size_t>();
-          pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
-          pje.mean = pj["junction_error"]["mean"].get<double>();
-          pje.max = pj["junction_error"]["max"].get<double>();
+      // One peer run at a facet size; returns its surface triangles (0 when it failed).
+      auto run_peer = [&](double facet, const char* note) -> int {
+        // The facet distance and cell size bounds scale with the facet size (0.5 and 3 voxels at the default 1.5),
+        // or they alone set the count.
+        const std::string command = peer.string() + " '" + spec + "' --facet-size " + std::to_string(facet) +
+                                    " --facet-distance " + std::to_string(facet / 3) + " --cell-size " +
+                                    std::to_string(2 * facet);
+        std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+        std::string line;
+        char buffer[4096];
+        while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) line += buffer;
+        try {
+          auto pj = nlohmann::json::parse(line);
+          std::printf("%-16s", ("  CGAL " + std::to_string(facet).substr(0, 4) + note).c_str());
+          for (int k = 0; k < 7; ++k) std::printf(" %9s", "");
+          bench::JunctionError pje;
+          if (pj.contains("junction_error")) {
+            pje.edges = pj["junction_error"]["edges"].get<size_t>();
+            pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
+            pje.mean = pj["junction_error"]["mean"].get<double>();
+            pje.max = pj["junction_error"]["max"].get<double>();
+          }
+          std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %11s\n", pj["total_s"].get<double>(), "-",
+                      pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
+                      pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
+                      junction_cell(pj.contains("junction_error"), pje).c_str());
+          pj["matched_to_cpmesh"] = *note != 0;
+          std::cout << pj.dump() << '\n';
+          return pj["triangles"].get<int>();
+        } catch (const std::exception& e) {
+          std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());
+          return 0;
         }
-        std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %11s\n", pj["total_s"].get<double>(), "-",
-                    pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
-                    pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
-                    junction_cell(pj.contains("junction_error"), pje).c_str());
-        std::cout << pj.dump() << '\n';
-      } catch (const std::exception& e) {
-        std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());
+      };
+      int peer_triangles = run_peer(peer_facet, "");
+      // Triangle count goes about as 1 / facet^2 (less where CGAL's distance bound adds triangles): up to three more
+      // runs, each at the facet size that this predicts for cpmesh's count, until within 15% of it.
+      double facet = peer_facet;
+      for (int tries = 0; peer_match && tries < 3 && peer_triangles > 0 && rep.surface.triangles > 0; ++tries) {
+        const double ratio = double(peer_triangles) / double(rep.surface.triangles);
+        if (tries > 0 && std::fabs(ratio - 1) < 0.15) break;
+        facet *= std::sqrt(ratio);
+        peer_triangles = run_peer(facet, "=");
       }
     }
     return 0;
