@@ -138,3 +138,22 @@ TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled arou
     CHECK(owners == 1);
   }
 }
+
+TEST_CASE("split_slivers: a sliver walled in by kept faces is reported and left as it is") {
+  // One flat tet whose four faces are all kept (a sliver-shaped component between interfaces): no neighbour can join
+  // the cavity, and a vertex inside it only makes flatter tets.
+  std::vector<glm::dvec3> P = {{0, 0, 0}, {2, 0, 0}, {1, 1.7, 0.1}, {1, 0.6, 0.12}};
+  std::vector<std::array<uint32_t, 4>> tets = {{0, 1, 2, 3}};
+  std::vector<int> region = {3};
+  const std::vector<std::array<uint32_t, 3>> kept = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}};
+  const auto before_points = P;
+  const auto before_tets = tets;
+  const double before = mesh::tet_stats(P, tets).min_dihedral_deg;
+  REQUIRE(before < 12);
+  const auto r = mesh::split_slivers(P, tets, region, kept, 12.0);
+  CHECK(r.inserted == 0);
+  CHECK(r.failed == 1);
+  CHECK(P == before_points);
+  CHECK(tets == before_tets);
+  CHECK(region == std::vector<int>{3});
+}
