@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numbers>
-#include <array>
 
 #include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
@@ -162,8 +162,7 @@ JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const s
         for (int y = -2; y <= 2; ++y)
           for (int x = -2; x <= 2; ++x) {
             const glm::ivec3 q = k0 + glm::ivec3(x, y, z);
-            if (glm::any(glm::lessThan(q, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(q, grid.dims))) continue;
-            if (x * x + y * y + z * z > 4 || !is_corner[grid.index(q.x, q.y, q.z)]) continue;
+            if (!grid.inside(q.x, q.y, q.z) || x * x + y * y + z * z > 4 || !is_corner[grid.index(q.x, q.y, q.z)]) continue;
             mean += glm::dvec3(q) + 0.5;
             ++found;
           }
@@ -194,12 +193,13 @@ JunctionAngles junction_angles(const Grid& grid, const uint16_t* labels, const s
   return out;
 }
 
-// The wedge-angle offset of one material near junctions, as a sparse field (0 elsewhere): the corners' offsets for
-// this label, averaged with weights (1 - (d/R)^2)^2 over corners within R = fade + 1.5 voxels, times a fade that is
-// 1 within a voxel of a junction and 0 beyond fade + 1 voxel, and 0 where the field is at the band's edge.
-BrickField junction_offset(uint16_t label, const BrickField& field, double band, const std::vector<glm::ivec3>& corners,
-                           const JunctionAngles& angles, const std::vector<float>& junction_distance, const Grid& grid,
-                           double fade) {
+// Adds the wedge-angle offset of one material near junctions to its field, and returns the offset as a sparse field
+// (0 elsewhere): the corners' offsets for this label, averaged with weights (1 - (d/R)^2)^2 over corners within
+// R = fade + 1.5 voxels, times a fade that is 1 within a voxel of a junction and 0 beyond fade + 1 voxel, and 0 where
+// the field is at the band's edge. Every voxel of the field keeps its sign (+-keep at least).
+BrickField add_junction_offset(uint16_t label, BrickField& field, double band, float keep,
+                               const std::vector<glm::ivec3>& corners, const JunctionAngles& angles,
+                               const std::vector<float>& junction_distance, const Grid& grid, double fade) {
   const double h = grid.min_spacing();
   const double radius = fade + 1.5 * h;
   const glm::ivec3 reach = glm::ivec3(glm::ceil(radius / grid.spacing)) + 1;
@@ -241,9 +241,13 @@ BrickField junction_offset(uint16_t label, const BrickField& field, double band,
       if (!grid.inside(v.x, v.y, v.z)) continue;
       const double dj = std::sqrt(double(junction_distance[grid.index(v.x, v.y, v.z)]));
       // None where the field is clamped at the band's edge: a raised -band would tie with other materials' far values.
-      const double w = (1 - smoothstep01((dj - h) / fade)) *
-                       std::clamp((band - std::fabs(double(field.at(v.x, v.y, v.z)))) / h, 0.0, 1.0);
-      out.set(v.x, v.y, v.z, float(w * nd.first[size_t(q)] / nd.second[size_t(q)]));
+      const float f = field.at(v.x, v.y, v.z);
+      const double w = (1 - smoothstep01((dj - h) / fade)) * std::clamp((band - std::fabs(double(f))) / h, 0.0, 1.0);
+      const float o = float(w * nd.first[size_t(q)] / nd.second[size_t(q)]);
+      out.set(v.x, v.y, v.z, o);
+      if (o == 0) continue;
+      const float g = std::clamp(f + o, float(-band), float(band));
+      field.set(v.x, v.y, v.z, f > 0 ? std::max(g, keep) : std::min(g, -keep));
     }
   }
   return out;
@@ -466,29 +470,11 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
                 field.set(i, j, k, in_crop ? phi[(size_t(c.z) * size_t(n.y) + size_t(c.y)) * size_t(n.x) + size_t(c.x)] : -band);
               }
         }
-    if (!angles.corners.empty()) {
-      // The wedge-angle offset goes into the field itself, so interfaces, curves, points and the partition all move
-      // together; every voxel keeps its sign. The offsets are kept for the sizing field (sizing_field.h).
-      BrickField offset = junction_offset(label, field, band, junction_corners, angles, junction_distance, grid, fade);
-      const glm::ivec3 bd = offset.brick_dims();
-      for (int bz = 0; bz < bd.z; ++bz)
-        for (int by = 0; by < bd.y; ++by)
-          for (int bx = 0; bx < bd.x; ++bx) {
-            const glm::ivec3 b(bx, by, bz);
-            if (!offset.allocated(b)) continue;
-            const glm::ivec3 v0 = b * BrickField::kBrick, v1 = glm::min(v0 + BrickField::kBrick, grid.dims) - 1;
-            for (int k = v0.z; k <= v1.z; ++k)
-              for (int j = v0.y; j <= v1.y; ++j)
-                for (int i = v0.x; i <= v1.x; ++i) {
-                  const float o = offset.at(i, j, k);
-                  if (o == 0) continue;
-                  const float f = field.at(i, j, k);
-                  const float g = std::clamp(f + o, -band, band);
-                  field.set(i, j, k, f > 0 ? std::max(g, keep) : std::min(g, -keep));
-                }
-          }
-      out.junction_offsets.push_back(std::move(offset));
-    }
+    // The wedge-angle offset goes into the field itself, so interfaces, curves, points and the partition all move
+    // together. The offsets are kept for the sizing field (sizing_field.h).
+    if (!angles.corners.empty())
+      out.junction_offsets.push_back(
+          add_junction_offset(label, field, band, keep, junction_corners, angles, junction_distance, grid, fade));
     out.fields.push_back(std::move(field));
   }
   return out;
