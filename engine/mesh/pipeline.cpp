@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cstdio>
 #include <map>
 #include <numeric>
 
@@ -46,30 +47,73 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   MeshResult result;
   MeshReport& rep = result.report;
   auto t = clock::now();
-  auto stage_done = [&](const std::string& name) {
-    const auto now = clock::now();
-    rep.seconds.emplace_back(name, std::chrono::duration<double>(now - t).count());
-    t = now;
-  };
+  const int stage_count = options.only_surfaces ? 6 : 7;
+  int stage_index = 0;
+  std::string current;
   auto begin = [&](const std::string& name) {
-    if (on_stage) on_stage(name);
+    current = name;
+    ++stage_index;
+    if (on_stage) on_stage({name, stage_index, stage_count, {}, -1});
+  };
+  auto update = [&](const std::string& detail) {
+    if (on_stage) on_stage({current, stage_index, stage_count, detail, -1});
+  };
+  auto stage_done = [&](const std::string& detail) {
+    const auto now = clock::now();
+    const double s = std::chrono::duration<double>(now - t).count();
+    rep.seconds.emplace_back(current, s);
+    t = now;
+    if (on_stage) on_stage({current, stage_index, stage_count, detail, s});
+  };
+  auto count = [](size_t n) {  // 12345678 -> "12,345,678"
+    const std::string digits = std::to_string(n);
+    std::string s;
+    for (size_t i = 0; i < digits.size(); ++i) {
+      if (i > 0 && (digits.size() - i) % 3 == 0) s += ',';
+      s += digits[i];
+    }
+    return s;
   };
 
   begin("fields");
   const fields::Grid grid = fields::grid_of(volume);
   const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
-  stage_done("fields");
+  {
+    char d[160];
+    std::snprintf(d, sizeof d, "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g",
+                  F.report.interfaces, F.report.triple_curves, F.report.quadruple_points, F.report.sizing.h_min,
+                  F.report.sizing.h_max);
+    stage_done(d);
+  }
   const auto& labels = F.fields.labels;
 
   begin("seeding");
   const auto seeds = particles::seed_population(F.embedding, options.population);
-  stage_done("seeding");
+  if (options.max_particles > 0 && seeds.particles.size() > options.max_particles) {
+    char d[400];
+    std::snprintf(d, sizeof d,
+                  "seeding made %s particles, more than the limit of %s (sizing h %.3g..%.3g, physical units; h stops "
+                  "at the smallest size where thin layers or tight curvature ask for less): raise --min-size, "
+                  "--max-size or --max-particles",
+                  count(seeds.particles.size()).c_str(), count(options.max_particles).c_str(), F.report.sizing.h_min,
+                  F.report.sizing.h_max);
+    throw ParticleBudgetError(d);
+  }
+  stage_done(count(seeds.particles.size()) + " particles");
 
   begin("advection");
-  auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population);
+  int iterations_so_far = 0;
+  auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population,
+                                  [&](const particles::RoundReport& r) {
+                                    iterations_so_far += r.iterations;
+                                    update("round " + std::to_string(r.round) + ", " + count(r.total) +
+                                           " particles, " + std::to_string(iterations_so_far) + " iterations");
+                                  });
   rep.protected_particles =
       particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);
-  stage_done("advection");
+  stage_done(count(relaxed.population.particles.size()) + " particles, " + std::to_string(relaxed.iterations) +
+             " iterations, " + std::to_string(relaxed.rounds.size()) + " rounds" +
+             (relaxed.settled ? ", settled" : relaxed.steady ? ", steady" : ", not settled"));
   const auto& P = relaxed.population;
   rep.particles = P.particles.size();
   rep.rounds = relaxed.rounds.size();
@@ -137,13 +181,14 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   }
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
-  stage_done("delaunay and extraction");
+  stage_done(count(T.tets.size()) + " Delaunay tets, " + count(I.triangles.size()) + " interface triangles, " +
+             std::to_string(rep.wrong_faces) + " wrong faces left");
 
   begin("smoothing");
   const SmoothReport smoothed = smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing);
   rep.smoothing_moves = smoothed.moves;
   T.points = I.vertices;  // the volume mesh's region points come from these tets
-  stage_done("smoothing");
+  stage_done(count(smoothed.moves) + " vertex moves");
 
   begin("quality");
   std::vector<uint8_t> on_curve(kind.size());
@@ -177,7 +222,12 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.materials_closed += mr.odd_edges == 0;
     rep.materials.push_back(mr);
   }
-  stage_done("quality");
+  {
+    char d[160];
+    std::snprintf(d, sizeof d, "radius ratio mean %.3f, min %.3f; %zu of %zu interfaces manifold", rep.surface.mean_radius_ratio,
+                  rep.surface.min_radius_ratio, rep.interfaces_manifold, rep.interfaces.size());
+    stage_done(d);
+  }
 
   // Outputs in physical units.
   for (const auto& p : I.vertices) {
@@ -237,7 +287,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     } catch (const std::exception& e) {
       rep.volume_error = e.what();
     }
-    stage_done("volume mesh");
+    char d[160];
+    if (rep.volume_error.empty())
+      std::snprintf(d, sizeof d, "%s tets, dihedral angles %.1f..%.1f deg", count(rep.volume.tets).c_str(),
+                    rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg);
+    else
+      std::snprintf(d, sizeof d, "failed");
+    stage_done(d);
   }
   return result;
 }

@@ -6,7 +6,7 @@
 //   const auto volume = cpmesh::io::read_label_volume("labels.nrrd");
 //   cpmesh::mesh::MeshOptions options;              // defaults for medical segmentations
 //   const auto result = cpmesh::mesh::mesh_volume(ctx, volume, options,
-//       [](const std::string& stage) { std::puts(stage.c_str()); });
+//       [](const cpmesh::mesh::StageEvent& e) { if (e.seconds >= 0) std::puts((e.stage + ": " + e.detail).c_str()); });
 //   cpmesh::io::write_vtp("interfaces.vtp", result.surfaces);
 //   cpmesh::io::write_vtu("volume.vtu", result.volume);
 //
@@ -16,6 +16,7 @@
 // (TetGen -pqAY bounded by the interface triangles, then the sliver pass).
 #include <array>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,10 @@ struct MeshOptions {
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
   std::vector<std::vector<uint16_t>> materials;
+  // Particles the seeding may make before the run stops with an error (0: no limit). The particle count is set by the
+  // sizing field, and thin layers ask for h at --min-size: a 1-voxel shell at 128^3 seeds 400k particles, hours of
+  // advection on a CPU device. Stopping after seeding, with the count, beats a run that looks hung.
+  size_t max_particles = 5'000'000;
 };
 
 // The volume with options.materials applied (a copy); throws std::invalid_argument naming a missing label.
@@ -88,7 +93,21 @@ struct MeshResult {
   MeshReport report;
 };
 
-using StageCallback = std::function<void(const std::string& stage)>;
+// What mesh_volume reports as it goes, per stage (the names in MeshReport::seconds): once when the stage starts
+// (seconds < 0, detail empty), any number of times while it runs (seconds < 0, detail: how far it is, e.g. the
+// advection's rounds), and once when it ends (seconds >= 0, detail: what it made).
+struct StageEvent {
+  std::string stage;
+  int index = 0, count = 0;  // this stage's number (1-based) and how many stages the run has
+  std::string detail;
+  double seconds = -1;
+};
+using StageCallback = std::function<void(const StageEvent&)>;
+
+// Thrown when the seeding makes more than MeshOptions::max_particles particles.
+struct ParticleBudgetError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& volume, const MeshOptions& options = {},
                        const StageCallback& on_stage = {});

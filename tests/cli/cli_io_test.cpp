@@ -148,5 +148,10 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   const auto garbled = run_tool("cpmesh mesh " + vol.string() + " --materials 1+x -o " + (dir / "m2").string());
   CHECK(garbled.exit_code == 1);
   CHECK(contains(garbled.output, "--materials"));
+  const auto budget = run_tool("cpmesh mesh " + vol.string() + " --max-particles 20 -o " + (dir / "m3").string());
+  CHECK(budget.exit_code == 1);
+  CHECK(contains(budget.output, "sphere.nrrd: seeding made"));
+  CHECK(contains(budget.output, "more than the limit of 20"));
+  CHECK(!fs::exists(dir / "m3"));
   fs::remove_all(dir);
 }

@@ -77,7 +77,34 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
   const auto volume = synth(io::SynthShape::sphere, 36, R, &centre);
   mesh::MeshOptions options;
   options.fields.sizing.h_max = 2.0;
-  const auto r = mesh::mesh_volume(ctx, volume, options);
+  std::vector<mesh::StageEvent> events;
+  const auto r = mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) { events.push_back(e); });
+  // Progress: every stage starts, ends with its time and what it made, in the report's order; the advection reports
+  // its rounds while it runs.
+  const auto& seconds = r.report.seconds;
+  REQUIRE(seconds.size() == 7);
+  size_t updates = 0, ends = 0;
+  for (size_t i = 0; i < events.size(); ++i) {
+    const auto& e = events[i];
+    CHECK(e.count == 7);
+    REQUIRE(e.index >= 1);
+    REQUIRE(e.index <= 7);
+    CHECK(e.stage == seconds[size_t(e.index - 1)].first);
+    if (e.seconds >= 0) {
+      CHECK(e.seconds == seconds[size_t(e.index - 1)].second);
+      CHECK(!e.detail.empty());
+      CHECK(size_t(e.index) == ++ends);
+    } else if (!e.detail.empty()) {
+      CHECK(e.stage == "advection");
+      CHECK(e.detail.find("particles") != std::string::npos);
+      ++updates;
+    } else {
+      CHECK(size_t(e.index) == ends + 1);  // a stage starts after the one before it ended
+    }
+  }
+  CHECK(ends == 7);
+  CHECK(updates == r.report.rounds);
+  CHECK(events.back().detail.find(" tets") != std::string::npos);
   const auto& S = r.surfaces;
   REQUIRE(S.triangles.size() > 200);
   // Mesh -> sphere: vertices and triangle centroids.
@@ -112,6 +139,24 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
   CHECK(rep.volume_error.empty());
   CHECK(rep.volume.tets > 0);
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1});
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "more particles than max_particles: stops after seeding with the count") {
+  const auto volume = synth(io::SynthShape::sphere, 36, 12, nullptr);
+  mesh::MeshOptions options;
+  options.max_particles = 50;
+  std::vector<std::string> ended;
+  try {
+    mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) {
+      if (e.seconds >= 0) ended.push_back(e.stage);
+    });
+    FAIL("no error");
+  } catch (const mesh::ParticleBudgetError& e) {
+    const std::string what = e.what();
+    CHECK(what.find("more than the limit of 50") != std::string::npos);
+    CHECK(what.find("--min-size") != std::string::npos);
+  }
+  CHECK(ended == std::vector<std::string>{"fields"});  // no advection started
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, interfaces share curve vertices") {

@@ -56,6 +56,11 @@ int main(int argc, char** argv) {
   app.add_option("--min-size", min_size,
                  "Smallest h, physical units (0: a quarter voxel; thin layers ask for it, so it sets their cost)")
       ->capture_default_str();
+  size_t max_particles = mesh::MeshOptions{}.max_particles;
+  app.add_option("--max-particles", max_particles,
+                 "A volume whose seeding makes more particles stops there and gets a row saying so (0: no limit); "
+                 "caps thin-layered volumes on slow devices")
+      ->capture_default_str();
   double peer_facet = 1.5;
   bool no_peer = false, peer_match = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
@@ -79,8 +84,18 @@ int main(int argc, char** argv) {
       options.only_surfaces = only_surfaces;
       options.fields.sizing.h_max = max_size;
       options.fields.sizing.h_min = min_size;
+      options.max_particles = max_particles;
       const auto t0 = std::chrono::steady_clock::now();
-      const auto r = mesh::mesh_volume(ctx, volume, options);
+      mesh::MeshResult r;
+      try {
+        r = mesh::mesh_volume(ctx, volume, options);
+      } catch (const mesh::ParticleBudgetError& e) {
+        std::printf("%-16s stopped: %s\n", spec.c_str(), e.what());
+        std::printf("%s\n", nlohmann::json{{"benchmark", "pipeline"}, {"volume", spec}, {"device", ctx.info().name},
+                                           {"stopped", e.what()}}.dump().c_str());
+        std::fflush(stdout);
+        continue;
+      }
       const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const auto& rep = r.report;
       std::printf("%-16s", spec.c_str());
@@ -114,7 +129,7 @@ int main(int argc, char** argv) {
           {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
-          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}}}};
+          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"max_particles", max_particles}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       std::cout << j.dump() << '\n';
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <memory>
 #include <set>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -79,6 +80,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
+  sub->add_option("--max-particles", m.max_particles,
+                  "Stop after seeding, with an error, if it made more particles than this (0: no limit); thin layers "
+                  "ask for h at --min-size, so their count grows as 1/min-size^2")
+      ->capture_default_str();
   sub->add_option("--preview", o->preview,
                   "Also render the interfaces to this PNG (1200 x 600: an oblique view and the same view cut away at "
                   "the centre, coloured by material pair), offscreen on the same device");
@@ -105,10 +110,30 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             }
             const io::LabelVolume volume = read_volume_input(o->input);
             gpu::Context ctx(g.context());
-            int stage = 0;
-            const auto r = mesh::mesh_volume(ctx, volume, o->mesh, [&](const std::string& name) {
-              if (tty) std::fprintf(stderr, "[%d/%d] %s ...\n", ++stage, o->mesh.only_surfaces ? 5 : 6, name.c_str());
-            });
+            // On a terminal: one line per stage, rewritten while it runs ("\033[K" clears the rest of the line).
+            bool line_open = false;  // a progress line without its newline yet
+            auto on_stage = [&](const mesh::StageEvent& e) {
+              if (!tty) return;
+              if (e.seconds >= 0)
+                std::fprintf(stderr, "\r[%d/%d] %s: %.2f s, %s\033[K\n", e.index, e.count, e.stage.c_str(), e.seconds,
+                             e.detail.c_str());
+              else
+                std::fprintf(stderr, "\r[%d/%d] %s ...%s%s\033[K", e.index, e.count, e.stage.c_str(),
+                             e.detail.empty() ? "" : " ", e.detail.c_str());
+              line_open = e.seconds < 0;
+              std::fflush(stderr);
+            };
+            const auto r = [&] {
+              try {
+                return mesh::mesh_volume(ctx, volume, o->mesh, on_stage);
+              } catch (const mesh::ParticleBudgetError& e) {
+                if (line_open) std::fputc('\n', stderr);  // the error goes on a line of its own
+                throw std::runtime_error(o->input.path + ": " + e.what());
+              } catch (...) {
+                if (line_open) std::fputc('\n', stderr);
+                throw;
+              }
+            }();
             const auto& rep = r.report;
             std::filesystem::create_directories(o->out);
             const std::string dir = o->out + "/";
