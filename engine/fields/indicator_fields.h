@@ -5,6 +5,10 @@
 // by a Gaussian under the constraint that every voxel keeps its sign (Whitaker's constrained antialiasing): the
 // smoothing removes the staircase but can never move an interface across a voxel centre, so argmax_m f_m at every
 // voxel centre is that voxel's label, and layers one voxel thick or single-voxel components survive.
+// A Gaussian of variance s^2 also shrinks every curved surface by s^2 times its mean curvature (a ball of radius 18.75
+// voxels came out 0.107 voxel small, its mesh 0.35 voxel off at worst); subtracting (s^2 / 2) times the Laplacian of
+// the smoothed field, itself smoothed so the staircase is not sharpened back, undoes that (curvature_correction:
+// 0.21 voxel at worst).
 // Then the paper's "tightening" (Williams & Rossignac): a curvature-limited level-set flow that moves the surface only
 // where a principal curvature radius is below r, and never more than r from the antialiased surface (the r-tube).
 // Tightening may move a surface across voxel centres; three things keep it honest:
@@ -21,10 +25,12 @@
 // the share of its voxels in a 3-voxel ball around the mean nearby 3-label junction corner; fading out over
 // junction_fade; every voxel keeps its sign). The offsets bend the interfaces back near the curves; they are also
 // kept apart (junction_offsets) so the sizing field can measure thickness without them.
-// Off by default. At 0.6, on the wedge ball, the embedding's curve points go from mean 0.30 to 0.24-0.25 voxel off the
-// analytic curves (max 0.83 -> 0.66 at 40^3, 0.83 -> 0.82 at 128^3), but the sizing field reads the bends as
-// curvature: 8-17% more particles, mean radius ratio 0.944 -> 0.933 on the 48^3 demo, and the mesh's curve edges are
-// no closer at their worst (max 0.52 -> 0.55).
+// Default 0.4. Measured on the wedge ball against 0 (both with the curvature correction above): the embedding's curve
+// points lie 0.24-0.26 voxel off the analytic curves on average instead of 0.29-0.32 (max 0.83 -> 0.72 at 40^3,
+// 0.67 -> 0.62 at 48^3, 0.84 -> 0.82 at 128^3); the meshes' triple-curve edges 0.21-0.25 instead of 0.29-0.31 (max
+// 0.66 -> 0.53 at 40^3, 0.56 -> 0.48 at 48^3, 0.47 -> 0.47 at 64^3, 0.63 -> 0.66 at 128^3), for 0-11% more
+// particles. At 0.6 the sizing field reads the bends as curvature: more particles, worse triangles, no better
+// worst edge.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -39,8 +45,10 @@ struct IndicatorOptions {
   double band = 4.0;             // narrow-band half-width, in voxels of the smallest spacing
   double junction_fade = 3.0;    // voxels: this close to where three or more labels meet, the smoothing turns into
                                  // twicing (below) to keep triple curves in place (0: plain smoothing everywhere)
-  double junction_sigma = 0.7;   // voxels: sigma of the twiced Gaussian used at junctions
-  double junction_correction = 0;  // voxels: amplitude of the wedge-angle correction at junctions (below; 0: off)
+  double junction_sigma = 0.7;   // voxels: sigma of the twiced Gaussian used at junctions (0: plain smoothing there)
+  bool curvature_correction = true;  // undo the smoothing's shrinkage of curved surfaces (indicator_fields.cpp)
+  double curvature_sigma = 1.5;      // voxels: Gaussian applied to the Laplacian that the correction subtracts
+  double junction_correction = 0.4;  // voxels: amplitude of the wedge-angle correction at junctions (below; 0: off)
   double tighten_radius = 1.0;   // r, in voxels of the smallest spacing: smallest curvature radius kept (0: off)
   int tighten_iterations = 0;    // flow steps (0: automatic, enough to move r)
 };

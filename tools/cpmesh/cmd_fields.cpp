@@ -45,9 +45,12 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
                   "they are (0: off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub->add_flag("!--no-curvature-correction", f.indicator.curvature_correction,
+                "Keep the smoothing's shrinkage of curved surfaces (by sigma^2 x mean curvature; corrected by default)");
   sub->add_option("--junction-correction", f.indicator.junction_correction,
                   "Raise each material's field near triple curves by this many voxels times a function of its wedge "
-                  "angle, against the smoothing's pull of curves towards flat sides (0: off; at 0.6 the wedge ball's curves lie 0.24 instead of 0.30 voxel off on average, but its meshes take more particles near them)")
+                  "angle, against the smoothing's pull of curves towards flat sides (0: off; at 0.4 the wedge ball's mesh "
+                  "curves lie 0.24 instead of 0.31 voxel off on average, for about 10% more particles)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--band", f.indicator.band, "Narrow band of the indicator fields, voxels")->capture_default_str();
