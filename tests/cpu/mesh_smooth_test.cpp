@@ -157,3 +157,35 @@ TEST_CASE("split_slivers: a sliver walled in by kept faces is reported and left 
   CHECK(tets == before_tets);
   CHECK(region == std::vector<int>{3});
 }
+
+TEST_CASE("constrained_quality: a cube meshes; intersecting facets are an error, not a crash") {
+  // The unit cube's surface, 12 triangles, outward.
+  std::vector<glm::dvec3> points;
+  for (int c = 0; c < 8; ++c) points.push_back(glm::dvec3(c & 1, (c >> 1) & 1, c >> 2) * 4.0);
+  std::vector<std::array<uint32_t, 3>> cube = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                                               {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  const std::vector<mesh::Region> regions = {{glm::dvec3(2.0), 1}};
+  const auto good = mesh::constrained_quality(points, cube, {}, regions, {});
+  CHECK(good.tets.size() >= 5);
+  double volume = 0;
+  for (const auto& t : good.tets)
+    volume += std::fabs(glm::dot(good.points[t[1]] - good.points[t[0]],
+                                 glm::cross(good.points[t[2]] - good.points[t[0]], good.points[t[3]] - good.points[t[0]]))) / 6.0;
+  CHECK(volume == doctest::Approx(64.0));
+  // A triangle that pierces two faces of the cube: TetGen cannot recover it (and the Debian build of TetGen 1.5
+  // crashes when it gives up); the call must throw instead.
+  auto pierced = cube;
+  points.push_back({-1.0, 2.0, 1.0});
+  points.push_back({5.0, 2.0, 1.0});
+  points.push_back({2.0, 2.0, 3.0});
+  pierced.push_back({8, 9, 10});
+  bool thrown = false;
+  try {
+    mesh::constrained_quality(points, pierced, {}, regions, {});
+  } catch (const std::runtime_error& e) {
+    thrown = true;
+    MESSAGE("pierced cube: " << std::string(e.what()));
+    CHECK(std::string(e.what()).find("TetGen") != std::string::npos);
+  }
+  CHECK(thrown);
+}
