@@ -128,14 +128,18 @@ void tighten_field(std::vector<float>& phi, const glm::ivec3& n, const glm::dvec
 // The labels around each junction corner and their shares of a ball of kAngleBall voxels: 2 pi times a share is the
 // label's wedge angle at the junction (a flat side: 1/2).
 constexpr double kAngleBall = 3.0;
+constexpr float kThinCornerShare = 0.2;
 constexpr int kMaxCornerLabels = 8;
 struct CornerShares {
   std::array<uint16_t, kMaxCornerLabels> label{};
   std::array<float, kMaxCornerLabels> share{};
   int count = 0;
+  float thin = 0;  // share of the ball's voxels in thin parts (protected_distance 0)
 };
 
-std::vector<CornerShares> corner_shares(const Grid& grid, const uint16_t* labels, const std::vector<glm::ivec3>& corners) {
+// protected_distance: squared distance to the nearest thin-part voxel (empty: none known).
+std::vector<CornerShares> corner_shares(const Grid& grid, const uint16_t* labels, const std::vector<glm::ivec3>& corners,
+                                        const std::vector<float>& protected_distance) {
   const double h = grid.min_spacing();
   // The shares are taken around the mean of the junction corners within two voxels rather than around the corner
   // itself: a staircase of corners zigzags up to a voxel off the curve, and a ball a voxel off a wedge's apex gets
@@ -160,7 +164,7 @@ std::vector<CornerShares> corner_shares(const Grid& grid, const uint16_t* labels
           }
       const glm::dvec3 centre = mean / double(std::max(found, 1));  // voxel-index coordinates
       std::array<int, kMaxCornerLabels> counts{};
-      int total = 0;
+      int total = 0, thin = 0;
       const glm::ivec3 lo = glm::max(k0 - reach, glm::ivec3(0)), hi = glm::min(k0 + reach, grid.dims - 1);
       for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
@@ -175,8 +179,10 @@ std::vector<CornerShares> corner_shares(const Grid& grid, const uint16_t* labels
             }
             ++counts[size_t(a)];
             ++total;
+            thin += !protected_distance.empty() && protected_distance[grid.index(x, y, z)] == 0;
           }
       for (int a = 0; a < c.count; ++a) c.share[size_t(a)] = float(double(counts[size_t(a)]) / double(std::max(total, 1)));
+      c.thin = float(double(thin) / double(std::max(total, 1)));
     }
   });
   return out;
@@ -200,7 +206,10 @@ JunctionAngles junction_angles(const std::vector<CornerShares>& shares, const st
   for (size_t ci = 0; ci < shares.size(); ++ci) {
     // Where four or more labels meet, no wedge angle describes a material: those corners give no offset, and the
     // offsets there are the average of the triple curves' around them.
-    if (corner_labels[ci] > 3) continue;
+    // Nor do corners among thin parts: where a layer a voxel or two thick lets its two neighbours touch, the corners
+    // are its staircase, not a wedge, and an offset there can cut the layer. A wedge's apex has a few thin voxels;
+    // a layer fills its share of the ball with them.
+    if (corner_labels[ci] > 3 || shares[ci].thin > kThinCornerShare) continue;
     auto& c = out.corners[ci];
     c.count = shares[ci].count;
     c.label = shares[ci].label;
@@ -333,10 +342,6 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
     squared_distance_transform(grid, junction_distance);
   }
   const double fade = options.junction_fade * h;
-  const JunctionAngles angles =
-      options.junction_correction > 0 && !junction_corners.empty()
-          ? junction_angles(corner_shares(grid, labels, junction_corners), junction_corner_labels, options.junction_correction * h)
-          : JunctionAngles{};
   const double sigma_phys = options.smoothing_sigma * h;
   const double tighten_r = options.tighten_radius * h;
   const int margin = int(std::ceil(std::max(options.band + 3.0 * options.smoothing_sigma, 2.0 * options.tighten_radius))) + 2;
@@ -348,8 +353,11 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // within 2r. Sheets and vessels thinner than about 2r and components smaller than r have no core; a cube's corners
   // lie r*sqrt(3) from its core and are rounded. The flow fades in over r + 1 voxels around protected voxels, for
   // every material, so no neighbour grows into a protected part either.
+  // The junction correction uses the same test (with r = 1 voxel if tightening is off): a layer a voxel or two thick
+  // has junction corners wherever its staircase lets its two neighbours touch, and an offset there can cut it.
+  const double thin_r = tighten_r > 0 ? tighten_r : options.junction_correction > 0 ? h : 0.0;
   std::vector<float> protected_distance;
-  if (tighten_r > 0) {
+  if (thin_r > 0) {
     protected_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
     for (const auto& [label, info] : found) {
       const Box crop = crop_of(info.second);
@@ -364,17 +372,22 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       for (size_t ci = 0; ci < cn; ++ci) depth[ci] = labels[full_index(ci)] == label ? std::numeric_limits<float>::infinity() : 0.0f;
       squared_distance_transform(cgrid, depth);
       for (size_t ci = 0; ci < cn; ++ci)
-        to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= tighten_r ? 0.0f
+        to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= thin_r ? 0.0f
                                                                                      : std::numeric_limits<float>::infinity();
       squared_distance_transform(cgrid, to_core);
       for (size_t ci = 0; ci < cn; ++ci)
-        if (depth[ci] > 0 && !(std::sqrt(double(to_core[ci])) <= 2.0 * tighten_r)) {
+        if (depth[ci] > 0 && !(std::sqrt(double(to_core[ci])) <= 2.0 * thin_r)) {
           protected_distance[full_index(ci)] = 0;
           ++out.protected_voxels;
         }
     }
     squared_distance_transform(grid, protected_distance);
   }
+  const JunctionAngles angles =
+      options.junction_correction > 0 && !junction_corners.empty()
+          ? junction_angles(corner_shares(grid, labels, junction_corners, protected_distance), junction_corner_labels,
+                            options.junction_correction * h)
+          : JunctionAngles{};
   // Where the flow is allowed, in [0, 1]: away from junctions and protected thin parts.
   auto tighten_weight = [&](size_t v) {
     double w = 1;

@@ -192,3 +192,32 @@ TEST_CASE("wedge ball: the junction correction levels the fields at the triple c
   CHECK(max1 < 0.75);     // measured 0.83 -> 0.72
   CHECK(max1 < max0);
 }
+
+TEST_CASE("junction correction: no offsets where thin layers make the junctions") {
+  // The concentric shells have no real junctions, but the staircase of their 1- and 1.5-voxel layers lets the
+  // neighbours on either side touch at voxel corners. An offset there cut the layers (15 interfaces, none manifold
+  // on the 40^3 shells), so corners among thin parts get none: the fields equal those without the correction.
+  const auto v = test::make_volume(io::SynthShape::shells, 40);
+  IndicatorOptions off, on;
+  off.junction_correction = 0;
+  REQUIRE(on.junction_correction > 0);
+  const auto F0 = build_indicator_fields(v.grid, v.labels.data(), off);
+  const auto F1 = build_indicator_fields(v.grid, v.labels.data(), on);
+  REQUIRE(F0.fields.size() == F1.fields.size());
+  double largest = 0;
+  for (size_t m = 0; m < F0.fields.size(); ++m)
+    for (int k = 0; k < v.grid.dims.z; ++k)
+      for (int j = 0; j < v.grid.dims.y; ++j)
+        for (int i = 0; i < v.grid.dims.x; ++i)
+          largest = std::max(largest, double(std::fabs(F1.fields[m].at(i, j, k) - F0.fields[m].at(i, j, k))));
+  CHECK(largest == 0.0);
+  // ... while the wedge ball's real junctions do get them (the test above measures their effect).
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 40);
+  const auto W = build_indicator_fields(wb.grid, wb.labels.data(), on);
+  double moved = 0;
+  for (const auto& o : W.junction_offsets)
+    for (int k = 0; k < wb.grid.dims.z; ++k)
+      for (int j = 0; j < wb.grid.dims.y; ++j)
+        for (int i = 0; i < wb.grid.dims.x; ++i) moved = std::max(moved, double(std::fabs(o.at(i, j, k))));
+  CHECK(moved > 0.1);
+}
