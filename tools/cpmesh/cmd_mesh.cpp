@@ -238,6 +238,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             }
             std::printf("  wrote %s\n", o->out.c_str());
             print_profile(ctx, g);
+            // The surfaces, particles and report are complete and written, but what was asked for is not all there.
+            if (!o->mesh.only_surfaces && !rep.volume_error.empty()) {
+              std::fprintf(stderr, "cpmesh: error: %s: volume mesh not made (%s); the interface meshes, particles and "
+                                   "report.json were written\n",
+                           o->input.path.c_str(), rep.volume_error.c_str());
+              return 2;
+            }
             return 0;
           }};
 }
