@@ -15,6 +15,7 @@
 #include "io/png.h"
 #include "mesh/pipeline.h"
 #include "render/preview.h"
+#include "progress.h"
 #include "volume_input.h"
 
 namespace cpmesh::cli {
@@ -110,18 +111,15 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             }
             const io::LabelVolume volume = read_volume_input(o->input);
             gpu::Context ctx(g.context());
-            // On a terminal: one line per stage, rewritten while it runs ("\033[K" clears the rest of the line).
+            // On a terminal: one line per stage, rewritten while it runs.
             bool line_open = false;  // a progress line without its newline yet
             auto on_stage = [&](const mesh::StageEvent& e) {
               if (!tty) return;
-              if (e.seconds >= 0)
-                std::fprintf(stderr, "\r[%d/%d] %s: %.2f s, %s\033[K\n", e.index, e.count, e.stage.c_str(), e.seconds,
-                             e.detail.c_str());
-              else
-                std::fprintf(stderr, "\r[%d/%d] %s ...%s%s\033[K", e.index, e.count, e.stage.c_str(),
-                             e.detail.empty() ? "" : " ", e.detail.c_str());
-              line_open = e.seconds < 0;
-              std::fflush(stderr);
+              const bool done = e.seconds >= 0;
+              char time[32];
+              std::snprintf(time, sizeof time, "%.2f s, ", e.seconds);
+              stage_line(e.index, e.count, e.stage, done ? time + e.detail : e.detail, done);
+              line_open = !done;
             };
             const auto r = [&] {
               try {

@@ -12,6 +12,17 @@
 
 namespace cpmesh::cli {
 
+// One progress line on stderr for stage `index` of `count`: "[i/n] stage ... text" while it runs, rewritten in place
+// ("\033[K" clears what a longer line left), and "[i/n] stage: text" with a newline when it is done.
+inline void stage_line(int index, int count, const std::string& stage, const std::string& text, bool done) {
+  if (done)
+    std::fprintf(stderr, "\r[%d/%d] %s: %s\033[K\n", index, count, stage.c_str(), text.c_str());
+  else
+    std::fprintf(stderr, "\r[%d/%d] %s ...%s%s\033[K", index, count, stage.c_str(), text.empty() ? "" : " ",
+                 text.c_str());
+  std::fflush(stderr);
+}
+
 class Progress {
  public:
   explicit Progress(int stages) : stages_(stages), tty_(isatty(STDERR_FILENO) != 0) {}
@@ -19,7 +30,7 @@ class Progress {
   template <class F>
   decltype(auto) stage(const std::string& name, F&& work) {
     ++current_;
-    if (tty_) std::fprintf(stderr, "[%d/%d] %s ...", current_, stages_, name.c_str());
+    if (tty_) stage_line(current_, stages_, name, "", false);
     const auto t0 = std::chrono::steady_clock::now();
     struct Finish {
       Progress* p;
@@ -28,9 +39,11 @@ class Progress {
       ~Finish() {
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         p->times_.emplace_back(name, s);
-        if (p->tty_)
-          std::fprintf(stderr, "\r[%d/%d] %s: %s %.2f s\n", p->current_, p->stages_, name.c_str(),
-                       std::uncaught_exceptions() ? "failed after" : "", s);
+        if (p->tty_) {
+          char text[64];
+          std::snprintf(text, sizeof text, "%s%.2f s", std::uncaught_exceptions() ? "failed after " : "", s);
+          stage_line(p->current_, p->stages_, name, text, true);
+        }
       }
     } finish{this, name, t0};
     return work();
