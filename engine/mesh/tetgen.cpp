@@ -200,7 +200,17 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
   sw << "pq" << options.max_radius_edge << "/" << options.min_dihedral << "AQz";
   if (options.max_volume > 0) sw << "a" << options.max_volume;
   if (options.keep_surface) sw << "Y";
-  return run_forked(sw.str(), in);
+  Tets t = run_forked(sw.str(), in);
+  // TetGen keeps the input points first, in order, unless it jettisons some: points left outside every region,
+  // which happens when a material's boundary is not closed and its region leaks into the outside. The caller's
+  // triangles and fixed vertices would then index the wrong points.
+  size_t kept = 0;
+  while (kept < points.size() && kept < t.points.size() && t.points[kept] == points[kept]) ++kept;
+  if (kept < points.size())
+    throw std::runtime_error("TetGen dropped surface vertices (" + std::to_string(points.size()) + " given, the first " +
+                             std::to_string(kept) + " kept in place): a material's boundary is not closed, so its "
+                             "region leaked outside");
+  return t;
 }
 
 }  // namespace cpmesh::mesh

@@ -172,6 +172,20 @@ TEST_CASE("constrained_quality: a cube meshes; intersecting facets are an error,
     volume += std::fabs(glm::dot(good.points[t[1]] - good.points[t[0]],
                                  glm::cross(good.points[t[2]] - good.points[t[0]], good.points[t[3]] - good.points[t[0]]))) / 6.0;
   CHECK(volume == doctest::Approx(64.0));
+  // An open cube (one face missing): its region leaks outside and TetGen drops the vertices left outside every
+  // region, so the triangles would index other points. That must be an error.
+  {
+    const std::vector<std::array<uint32_t, 3>> open(cube.begin() + 2, cube.end());
+    bool thrown = false;
+    try {
+      mesh::constrained_quality(points, open, {}, regions, {});
+    } catch (const std::runtime_error& e) {
+      thrown = true;
+      MESSAGE("open cube: " << std::string(e.what()));
+      CHECK(std::string(e.what()).find("not closed") != std::string::npos);
+    }
+    CHECK(thrown);
+  }
   // A triangle that pierces two faces of the cube: TetGen cannot recover it (and the Debian build of TetGen 1.5
   // crashes when it gives up); the call must throw instead.
   auto pierced = cube;
