@@ -66,14 +66,23 @@ std::vector<uint16_t> label_tets(const fields::IndicatorFields& F, const Tets& T
 
 std::vector<uint16_t> hull_materials(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj) {
   std::vector<uint16_t> out(adj.neighbour.size(), 0);
-  const double step = 0.5 * F.grid.min_spacing();
+  const double h = F.grid.min_spacing();
   const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
   for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
     if (adj.neighbour[tc] != Adjacency::kHull) continue;
     const auto f = outward_face(T, tc);
-    const glm::dvec3 c = (T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0;
-    const glm::dvec3 n = glm::normalize(glm::cross(T.points[f[1]] - T.points[f[0]], T.points[f[2]] - T.points[f[0]]));
-    out[tc] = uint16_t(F.material_at(glm::clamp((c + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
+    const glm::dvec3 &a = T.points[f[0]], &b = T.points[f[1]], &c = T.points[f[2]];
+    const glm::dvec3 centroid = (a + b + c) / 3.0;
+    const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+    // A surface sampled by this face's corners, with curvature radius no smaller than the face's circumradius rho,
+    // bulges at most rho beyond it: sampling half a voxel out, as before, landed inside a material wherever a
+    // large hull face cut under a curved surface, and the outside then changed material from face to face, which
+    // left the materials' boundaries open (a 40^3 wedge ball lost its tet mesh that way).
+    const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+    const double area2 = glm::length(glm::cross(b - a, c - a));  // twice the area
+    const double rho = area2 > 0 ? la * lb * lc / (2.0 * area2) : std::max({la, lb, lc});
+    const double step = 0.5 * h + std::min(rho, 4.0 * h);
+    out[tc] = uint16_t(F.material_at(glm::clamp((centroid + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
   }
   return out;
 }

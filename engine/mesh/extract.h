@@ -40,7 +40,8 @@ std::array<uint32_t, 3> outward_face(const Tets& tets, uint32_t tc);
 glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d, bool& ok);
 // Material index of every tet at its circumcentre (clamped to the grid; a flat tet uses its centroid).
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& fields, const Tets& tets);
-// Per hull face (indexed like Adjacency::neighbour): the material half a voxel outside it; 0 for inner faces.
+// Per hull face (indexed like Adjacency::neighbour): the material outside it, sampled half a voxel plus the face's
+// circumradius (at most 4 voxels) out, beyond any surface its corners sample; 0 for inner faces.
 std::vector<uint16_t> hull_materials(const fields::IndicatorFields& fields, const Tets& tets, const Adjacency& adj);
 
 // The material across face tc (tet * 4 + corner): the neighbour tet's, or the hull material outside.

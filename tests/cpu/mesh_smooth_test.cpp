@@ -57,6 +57,37 @@ TEST_CASE("smooth_interfaces: random points on a sphere become a better mesh on 
   CHECK(I.vertices == kept);
 }
 
+TEST_CASE("hull_materials: a coarse hull under a curved surface still sees the outside material") {
+  // An icosahedron on a sphere of radius 10 voxels: its faces lie up to 2 voxels inside the sphere, so half a voxel
+  // beyond them is still the sphere's material. Every hull face must see the background instead, or the sphere's
+  // boundary (the faces between its tets and the outside) has holes.
+  const double R = 10;
+  const auto vol = test::make_volume(io::SynthShape::sphere, 32, R);
+  const auto F = fields::build_indicator_fields(vol.grid, vol.labels.data());
+  const double g = (1 + std::sqrt(5.0)) / 2;
+  std::vector<glm::dvec3> points;
+  for (int s1 : {-1, 1})
+    for (int s2 : {-1, 1})
+      for (const glm::dvec3& d : {glm::dvec3(0, s1, s2 * g), glm::dvec3(s1, s2 * g, 0), glm::dvec3(s2 * g, 0, s1)})
+        points.push_back(vol.centre + R * glm::normalize(d));
+  const auto T = mesh::delaunay(points);
+  const auto material = mesh::label_tets(F, T);
+  const auto adj = mesh::build_adjacency(T);
+  const auto hull = mesh::hull_materials(F, T, adj);
+  size_t faces = 0, outside = 0;
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    if (adj.neighbour[tc] != mesh::Adjacency::kHull) continue;
+    ++faces;
+    outside += hull[tc] == 0;  // labels ascending: the background (0) is material 0, the sphere material 1
+  }
+  CHECK(faces == 20);
+  CHECK(outside == faces);
+  for (uint16_t m : material) CHECK(m == 1);
+  const auto I = mesh::extract_interfaces(T, adj, hull, material, std::vector<uint8_t>(points.size(), 2));
+  CHECK(I.triangles.size() == 20);
+  CHECK(mesh::odd_edges(I.triangles) == 0);
+}
+
 TEST_CASE("improve_tets: a free vertex near a face of a cube moves back inside, fixed vertices stay") {
   // A unit cube, each face split in two triangles, each triangle joined to one free vertex (index 8) put almost on
   // the bottom face: the two bottom tets are slivers.
