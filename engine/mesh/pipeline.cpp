@@ -260,7 +260,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       // the vertex pass place the new vertices among their neighbours.
       rep.sliver_split = split_slivers(V.points, V.tets, V.region, I.triangles, options.volume.min_dihedral,
                                        options.volume.max_radius_edge);
-      if (rep.sliver_split.inserted > 0) {
+      if (rep.sliver_split.inserted + rep.sliver_split.flips > 0) {
         const auto again = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
                                         options.volume.max_radius_edge);
         rep.tet_improvement.min_dihedral_after = again.min_dihedral_after;

@@ -81,7 +81,7 @@ struct MeshReport {
   std::vector<MaterialReport> materials;
   TetStats volume;           // the whole volume mesh
   TetImproveReport tet_improvement;  // the sliver passes after TetGen (smooth.h improve_tets, both runs)
-  SliverSplitReport sliver_split;    // slivers cut out and refilled around a new vertex (smooth.h split_slivers)
+  SliverSplitReport sliver_split;    // slivers flipped away or refilled around a new vertex (smooth.h split_slivers)
   std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
   size_t interfaces_manifold = 0, materials_closed = 0;
 };

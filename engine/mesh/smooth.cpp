@@ -225,7 +225,7 @@ std::array<uint32_t, 3> face_of(const std::array<uint32_t, 4>& t, int i) {
 
 SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
                                 std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                double target_deg, double max_radius_edge, int max_rings) {
+                                double target_deg, double max_radius_edge, int max_rings, bool remove_edges) {
   SliverSplitReport report;
   const double target = target_deg * M_PI / 180;
   constexpr uint32_t dead = UINT32_MAX;
@@ -270,11 +270,119 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
 
   const bool had_regions = !region.empty();
   if (!had_regions) region.assign(tets.size(), 0);
+  // Edge removal: the n tets around an edge (a, b) of the sliver (all of one region, no kept face among the n faces
+  // on the edge) become the 2n - 4 tets joining a and b to a fan triangulation of the ring of their other vertices.
+  // A sliver's two long edges carry its near-180-degree dihedral angles; removing one removes the sliver with no new
+  // vertex. The best of every edge and fan is taken when its smallest dihedral angle beats the old tets' and no new
+  // tet goes over the radius-edge limit (as the cavities below). Returns whether the mesh changed.
+  auto remove_edge = [&](uint32_t start) {
+    const auto k = tets[start];
+    const bool positive = orient(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > 0;
+    double best = -1;
+    std::vector<uint32_t> best_ring_tets;
+    std::vector<std::array<uint32_t, 4>> best_new;
+    for (int ea = 0; ea < 4; ++ea)
+      for (int eb = ea + 1; eb < 4; ++eb) {
+        const uint32_t a = k[size_t(ea)], b = k[size_t(eb)];
+        // Walk around the edge: ring vertices p_0, p_1, ... with tets (a, b, p_i, p_i+1), crossing the faces
+        // (a, b, p_i+1) until the walk is back at the sliver.
+        uint32_t others[2];
+        int found = 0;
+        for (uint32_t v : k)
+          if (v != a && v != b) others[found++] = v;
+        std::vector<uint32_t> ring{others[0]}, ring_tets;
+        uint32_t prev = others[0], cur = others[1], t = start;
+        bool closed = false;
+        for (int step = 0; step < 8; ++step) {
+          if (region[t] != region[start]) break;
+          ring_tets.push_back(t);
+          const auto& q = tets[t];
+          int opposite = 0;
+          while (opposite < 4 && q[size_t(opposite)] != prev) ++opposite;
+          if (opposite == 4 || kept_faces.count(FaceKey(face_of(q, opposite)))) break;
+          const uint32_t u = neighbour(t, opposite);
+          if (u == dead) break;
+          if (u == start) {
+            closed = cur == others[0];
+            break;
+          }
+          ring.push_back(cur);
+          uint32_t next = dead;
+          for (uint32_t v : tets[u])
+            if (v != a && v != b && v != cur) next = v;
+          if (next == dead) break;
+          prev = cur;
+          cur = next;
+          t = u;
+        }
+        const size_t n = ring.size();
+        if (!closed || n < 3 || n > 7) continue;
+        double old_worst = M_PI, old_ratio = 0;
+        for (uint32_t r : ring_tets) {
+          const auto& q = tets[r];
+          old_worst = std::min(old_worst, tet_min_angle(q));
+          old_ratio = std::max(old_ratio, radius_edge_ratio(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
+        }
+        const double limit = std::max(1.5 * max_radius_edge, old_ratio);
+        for (size_t apex = 0; apex < n; ++apex) {  // fan from ring vertex `apex`
+          std::vector<std::array<uint32_t, 4>> made;
+          double worst = M_PI;
+          bool ok = true;
+          for (size_t i = 1; i + 1 < n && ok; ++i) {
+            const uint32_t p0 = ring[apex], p1 = ring[(apex + i) % n], p2 = ring[(apex + i + 1) % n];
+            for (uint32_t end : {a, b}) {
+              std::array<uint32_t, 4> q{p0, p1, p2, end};
+              const double o = orient(P[q[0]], P[q[1]], P[q[2]], P[q[3]]);
+              if ((o > 0) != positive) std::swap(q[1], q[2]);
+              const double vol = std::fabs(o);
+              const double e = glm::length(P[p1] - P[p0]) + glm::length(P[p2] - P[p1]) + glm::length(P[end] - P[p0]);
+              if (vol <= 1e-9 * e * e * e / 27 || radius_edge_ratio(P[q[0]], P[q[1]], P[q[2]], P[q[3]]) > limit) {
+                ok = false;
+                break;
+              }
+              worst = std::min(worst, tet_min_angle(q));
+              made.push_back(q);
+            }
+          }
+          if (!ok || worst <= old_worst + 1e-3 || worst <= best) continue;
+          // The new tets must fill exactly the old ones (a and b on either side of every fan triangle).
+          double v_old = 0, v_new = 0;
+          for (uint32_t r : ring_tets) v_old += std::fabs(orient(P[tets[r][0]], P[tets[r][1]], P[tets[r][2]], P[tets[r][3]]));
+          for (const auto& q : made) v_new += std::fabs(orient(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
+          if (std::fabs(v_new - v_old) > 1e-9 * v_old) continue;
+          best = worst;
+          best_ring_tets = ring_tets;
+          best_new = made;
+        }
+      }
+    if (best < 0) return false;
+    const int r = region[start];
+    for (uint32_t t : best_ring_tets) unlink(t);
+    for (size_t i = 0; i < best_new.size(); ++i) {
+      uint32_t slot;
+      if (i < best_ring_tets.size()) {
+        slot = best_ring_tets[i];
+        tets[slot] = best_new[i];
+      } else {
+        slot = uint32_t(tets.size());
+        tets.push_back(best_new[i]);
+        region.push_back(r);
+      }
+      region[slot] = r;
+      link(slot);
+    }
+    for (size_t i = best_new.size(); i < best_ring_tets.size(); ++i) tets[best_ring_tets[i]] = {dead, dead, dead, dead};
+    return true;
+  };
   std::mt19937 rng(54321);
   std::normal_distribution<double> n01;
   for (uint32_t start : bad) {
     if (tets[start][0] == dead || tet_min_angle(tets[start]) >= target) continue;  // replaced or fixed meanwhile
     const bool positive = orient(P[tets[start][0]], P[tets[start][1]], P[tets[start][2]], P[tets[start][3]]) > 0;
+    if (remove_edges && remove_edge(start)) {
+      ++report.flips;
+      continue;
+    }
     std::vector<uint32_t> cavity{start};
     std::set<uint32_t> in_cavity{start};
     bool done = false;

@@ -48,20 +48,29 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& points, const std::vector
                               size_t fixed, double target_deg = 12.0, double max_radius_edge = 1.5, int passes = 4);
 
 // Slivers that moving vertices cannot fix: a tet whose four vertices are all kept surface vertices (two interface
-// triangles folded a few degrees across their shared edge, with the flat tet filling the fold) keeps its shape
-// whatever the inner vertices do. Each tet whose smallest dihedral angle is below target_deg is cut out together
-// with its neighbours of the same region (never across a face in `kept`, the interface triangles) and the cavity
-// is filled again by joining its boundary faces to one new inner vertex, placed where the smallest dihedral angle
-// of the new tets is largest. The cavity grows by rings (at most `max_rings`) until a position improves on the old
-// tets' smallest angle without a new tet over 1.5 times the radius-edge bound (or the old tets' largest ratio). No kept
-// face changes, no vertex is dropped, the cavity's volume is preserved; new points are appended to `points` and
-// take the cavity's region. Deterministic.
+// triangles folded a few degrees across their shared edge, with the flat tet filling the fold; or four vertices of
+// a thin part's boundary, such as a wedge's tip) keeps its shape whatever the inner vertices do. For each tet whose
+// smallest dihedral angle is below target_deg:
+//  1. Edge removal (remove_edges): the n tets (3 to 7) around one of its edges, all of one region and with no kept
+//     face on the edge, become the 2n - 4 tets joining the edge's ends to a fan triangulation of the ring of their
+//     other vertices. A sliver's two long edges carry its near-180-degree angles, so removing one removes it with no
+//     new vertex. The best edge and fan is taken if it beats the old tets' smallest angle.
+//  2. Otherwise the tet is cut out together with its neighbours of the same region (never across a face in `kept`,
+//     the interface triangles) and the cavity is filled again by joining its boundary faces to one new inner vertex,
+//     placed where the smallest dihedral angle of the new tets is largest. The cavity grows by rings (at most
+//     `max_rings`) until a position improves on the old tets' smallest angle.
+// Neither makes a tet over 1.5 times the radius-edge bound (or the old tets' largest ratio). No kept face changes, no
+// kept vertex is dropped, the volume is preserved; new points are appended to `points` and take the cavity's region.
+// Deterministic. Edge removal took the 48^3 wedge ball's worst tet (9.2 degrees, four vertices on a wedge's tip,
+// where no new vertex found a better place) to the 12-degree bound.
 struct SliverSplitReport {
+  size_t flips = 0;     // edges removed (no new vertex)
   size_t inserted = 0;  // new inner vertices
-  size_t failed = 0;    // slivers no cavity could improve
+  size_t failed = 0;    // slivers neither could improve
 };
 SliverSplitReport split_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
                                 std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                double target_deg = 12.0, double max_radius_edge = 1.5, int max_rings = 3);
+                                double target_deg = 12.0, double max_radius_edge = 1.5, int max_rings = 3,
+                                bool remove_edges = true);
 
 }  // namespace cpmesh::mesh

@@ -138,8 +138,19 @@ TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled arou
   auto untouched_region = region;
   CHECK(mesh::split_slivers(P, untouched, untouched_region, kept, 1.0).inserted == 0);  // nothing below 1 degree
   CHECK(untouched == tets);
+  {  // Edge removal finds the same fix with no new vertex: the three tets on edge cd become abec and abed.
+    auto flipped = tets;
+    auto flipped_region = region;
+    auto Q = P;
+    const auto f = mesh::split_slivers(Q, flipped, flipped_region, kept, 20.0);
+    CHECK(f.flips == 1);
+    CHECK(f.inserted == 0);
+    CHECK(Q == P);
+    CHECK(flipped.size() == 2);
+    CHECK(mesh::tet_stats(P, flipped).min_dihedral_deg > before + 10);
+  }
 
-  const auto r = mesh::split_slivers(P, tets, region, kept, 20.0);
+  const auto r = mesh::split_slivers(P, tets, region, kept, 20.0, 1.5, 3, false);  // the new-vertex refill alone
   const double after = mesh::tet_stats(P, tets).min_dihedral_deg;
   MESSAGE("min dihedral " << before << " -> " << after << " deg, " << tets.size() << " tets, new vertex at "
                           << P.back().x << " " << P.back().y << " " << P.back().z);
@@ -168,6 +179,59 @@ TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled arou
     }
     CHECK(owners == 1);
   }
+}
+
+TEST_CASE("split_slivers: a sliver among four surface vertices goes by edge removal, unless a kept face is on the edge") {
+  // The classic sliver: a square's corners, one diagonal (a, c) lifted and the other (b, d) lowered, so its angles at
+  // both diagonals are near 180 degrees. Two tets join the top faces to an apex e, so three tets surround a-c; all
+  // five vertices are kept surface vertices. Removing edge a-c leaves the two halves of the pyramid bdea, bdec.
+  const double eps = 0.05;
+  std::vector<glm::dvec3> P = {{0, 0, eps}, {1, 0, -eps}, {1, 1, eps}, {0, 1, -eps}, {0.5, 0.5, 1.0}};
+  const uint32_t a = 0, b = 1, c = 2, d = 3, e = 4;
+  std::vector<std::array<uint32_t, 4>> tets = {{a, b, c, d}, {a, c, d, e}, {a, c, e, b}};
+  auto orient = [&](const std::array<uint32_t, 4>& t) {
+    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
+  };
+  for (auto& t : tets)
+    if ((orient(t) > 0) != (orient(tets[0]) > 0)) std::swap(t[0], t[1]);
+  const bool positive = orient(tets[0]) > 0;
+  double volume = 0;
+  for (const auto& t : tets) volume += std::fabs(orient(t));
+  const double before = mesh::tet_stats(P, tets).min_dihedral_deg;
+  REQUIRE(before < 12);
+  // The outer faces may be kept (interface triangles): only the faces on the removed edge may not.
+  const std::vector<std::array<uint32_t, 3>> outer = {{a, b, d}, {b, c, d}, {a, d, e}, {c, d, e}, {a, b, e}, {b, c, e}};
+  auto T = tets;
+  std::vector<int> region = {2, 2, 2};
+  const auto before_points = P;
+  const auto r = mesh::split_slivers(P, T, region, outer, 12.0);
+  const double after = mesh::tet_stats(P, T).min_dihedral_deg;
+  MESSAGE("min dihedral " << before << " -> " << after << " deg");
+  CHECK(r.flips == 1);
+  CHECK(r.inserted == 0);
+  CHECK(r.failed == 0);
+  CHECK(P == before_points);
+  REQUIRE(T.size() == 2);
+  CHECK(region == std::vector<int>{2, 2});
+  CHECK(after > 30);
+  double new_volume = 0;
+  for (const auto& t : T) {
+    CHECK((orient(t) > 0) == positive);
+    new_volume += std::fabs(orient(t));
+    CHECK(std::count(t.begin(), t.end(), a) + std::count(t.begin(), t.end(), c) == 1);  // edge a-c is gone
+  }
+  CHECK(new_volume == doctest::Approx(volume).epsilon(1e-12));
+  // A kept face on edge a-c (here ace) forbids removing it; the other long edge b-d has only the sliver around it.
+  auto T2 = tets;
+  std::vector<int> region2 = {2, 2, 2};
+  auto with_ace = outer;
+  with_ace.push_back({a, c, e});
+  const auto r2 = mesh::split_slivers(P, T2, region2, with_ace, 12.0, 1.5, 3, true);
+  CHECK(r2.flips == 0);
+  // Nor across regions.
+  auto T3 = tets;
+  std::vector<int> region3 = {2, 2, 5};
+  CHECK(mesh::split_slivers(P, T3, region3, outer, 12.0).flips == 0);
 }
 
 TEST_CASE("split_slivers: a sliver walled in by kept faces is reported and left as it is") {

@@ -186,10 +186,10 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(rep.surface.min_radius_ratio > 0.3);
   CHECK(rep.surface.mean_radius_ratio > 0.92);
   // The sliver passes never make the volume mesh worse than TetGen left it, and reach the issue's 10 degrees: the
-  // worst tet TetGen leaves here has four interface vertices (two kept triangles folded by a few degrees), which
-  // split_slivers refills around a new vertex (measured 12.1 degrees at 40^3, 48^3 and 64^3).
+  // worst tets TetGen leaves have four interface vertices (two kept triangles folded by a few degrees), which
+  // split_slivers refills around a new vertex where the vertex moves cannot help (its own test is in the cpu suite;
+  // measured 12.0-12.4 degrees at 40^3, 48^3, 64^3 and 128^3).
   CHECK(rep.volume.min_dihedral_deg >= rep.tet_improvement.min_dihedral_before);
-  CHECK(rep.sliver_split.inserted > 0);
   CHECK(rep.sliver_split.failed == 0);
   CHECK(rep.volume.min_dihedral_deg >= 10);
   // Conforming: triangles of different interfaces meet at curve or quadruple-point vertices.

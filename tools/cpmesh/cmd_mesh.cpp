@@ -194,6 +194,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"] = tet_json(rep.volume);
             j["volume_mesh"]["min_dihedral_deg_from_tetgen"] = rep.tet_improvement.min_dihedral_before;
             j["volume_mesh"]["sliver_moves"] = rep.tet_improvement.moves;
+            j["volume_mesh"]["sliver_flips"] = rep.sliver_split.flips;
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
@@ -227,10 +228,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty())
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
-                            "moves, %zu splits), radius-edge max %.2f\n",
+                            "moves, %zu flips, %zu splits), radius-edge max %.2f\n",
                             rep.volume.tets, rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
-                            rep.sliver_split.inserted, rep.volume.max_radius_edge);
+                            rep.sliver_split.flips, rep.sliver_split.inserted, rep.volume.max_radius_edge);
               else
                 std::printf("  volume mesh not made: %s\n", rep.volume_error.c_str());
             }
