@@ -1,11 +1,13 @@
 #include "fields/closest_point_embedding.h"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -131,6 +133,129 @@ FeatureKind kind_of(size_t count) {
   return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
 }
 
+// Weighted local quadratic fit of a curve through points[i] (all `points`: the curve's representatives): the moved
+// position, or points[i] itself when the neighbourhood is not one smooth curve (see the header).
+glm::dvec3 fit_curve_point(const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near, size_t i,
+                           double sigma, double h) {
+  const glm::dvec3 p = points[i];
+  double W = 0;
+  glm::dvec3 c(0.0);
+  for (uint32_t j : near) {
+    const glm::dvec3 d = points[j] - p;
+    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
+    W += w;
+    c += w * points[j];
+  }
+  c /= W;
+  glm::dmat3 C(0.0);
+  for (uint32_t j : near) {
+    const glm::dvec3 d = points[j] - p;
+    const glm::dvec3 e = points[j] - c;
+    C += std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma)) * glm::outerProduct(e, e);
+  }
+  // Tangent: the principal axis (power iteration from the axis of the largest diagonal entry).
+  glm::dvec3 t(0.0);
+  t[C[0][0] >= C[1][1] && C[0][0] >= C[2][2] ? 0 : (C[1][1] >= C[2][2] ? 1 : 2)] = 1.0;
+  for (int it = 0; it < 40; ++it) {
+    const glm::dvec3 n = C * t;
+    if (glm::length(n) < 1e-30) return p;
+    t = glm::normalize(n);
+  }
+  const glm::dvec3 u = glm::normalize(glm::cross(t, std::fabs(t.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+  const glm::dvec3 v = glm::cross(t, u);
+  // Both normal coordinates as a + b s + c s^2 in the arc parameter s / sigma, by weighted least squares.
+  glm::dmat3 A(0.0);
+  glm::dvec3 ru(0.0), rv(0.0);
+  for (uint32_t j : near) {
+    const glm::dvec3 d = points[j] - p;
+    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
+    const double s = glm::dot(d, t) / sigma;
+    const glm::dvec3 phi(1.0, s, s * s);
+    A += w * glm::outerProduct(phi, phi);
+    ru += w * glm::dot(d, u) * phi;
+    rv += w * glm::dot(d, v) * phi;
+  }
+  if (std::fabs(glm::determinant(A)) < 1e-9 * W * W * W) return p;  // all points at one spot: no curve to fit
+  const glm::dmat3 Ai = glm::inverse(A);
+  const glm::dvec3 cu = Ai * ru, cv = Ai * rv;
+  double residual = 0;
+  for (uint32_t j : near) {
+    const glm::dvec3 d = points[j] - p;
+    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
+    const double s = glm::dot(d, t) / sigma;
+    const glm::dvec3 phi(1.0, s, s * s);
+    const double eu = glm::dot(d, u) - glm::dot(cu, phi), ev = glm::dot(d, v) - glm::dot(cv, phi);
+    residual += w * (eu * eu + ev * ev);
+  }
+  const glm::dvec3 move = u * cu.x + v * cv.x;
+  if (std::sqrt(residual / W) > 0.25 * h || glm::length(move) > 0.5 * h) return p;
+  return p + move;
+}
+
+// The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
+// closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
+std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner, double sigma) {
+  const double h = E.grid.min_spacing();
+  const double cell = 0.25 * h;
+  const double reach = 3.0 * sigma;
+  auto key_of = [](const glm::dvec3& x, double size) {
+    const glm::ivec3 k = glm::ivec3(glm::floor(x / size)) + (1 << 20);
+    return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
+           uint64_t(uint32_t(k.z) & 0x1fffff);
+  };
+  std::vector<CurveMove> out;
+  for (uint32_t fid = 0; fid < E.features.size(); ++fid) {
+    const Feature& feature = E.features[fid];
+    if (feature.kind != FeatureKind::triple_curve) continue;
+    std::unordered_map<uint64_t, uint32_t> rep_of;
+    std::vector<glm::dvec3> sum;
+    std::vector<uint32_t> count;
+    for (size_t i = 0; i < E.fine.size(); ++i) {
+      if (owner[i] != fid) continue;
+      const glm::dvec3 x(glm::vec3(E.fine[i]));
+      const auto [it, added] = rep_of.try_emplace(key_of(x, cell), uint32_t(sum.size()));
+      if (added) sum.emplace_back(0.0), count.push_back(0);
+      sum[it->second] += x;
+      ++count[it->second];
+    }
+    if (sum.empty()) continue;
+    std::vector<glm::dvec3> reps(sum.size());
+    for (size_t r = 0; r < reps.size(); ++r) reps[r] = sum[r] / double(count[r]);
+    // Neighbours within `reach` through buckets of that size.
+    std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
+    for (size_t r = 0; r < reps.size(); ++r) buckets[key_of(reps[r], reach)].push_back(uint32_t(r));
+    std::vector<glm::dvec3> quads;  // this curve's ends
+    for (const auto& qp : E.quadruple_points) {
+      const auto& qm = E.features[qp.feature].materials;
+      if (std::all_of(feature.materials.begin(), feature.materials.begin() + 3,
+                      [&](uint16_t m) { return std::find(qm.begin(), qm.end(), m) != qm.end(); }))
+        quads.push_back(qp.position);
+    }
+    const size_t first = out.size();
+    out.resize(first + reps.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, reps.size()), [&](const tbb::blocked_range<size_t>& range) {
+      std::vector<uint32_t> near;
+      for (size_t r = range.begin(); r < range.end(); ++r) {
+        near.clear();
+        const glm::ivec3 b = glm::ivec3(glm::floor(reps[r] / reach));
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const auto it = buckets.find(key_of((glm::dvec3(b + glm::ivec3(dx, dy, dz)) + 0.5) * reach, reach));
+              if (it == buckets.end()) continue;
+              for (uint32_t j : it->second)
+                if (glm::length(reps[j] - reps[r]) < reach) near.push_back(j);
+            }
+        double to_quad = std::numeric_limits<double>::infinity();
+        for (const auto& q : quads) to_quad = std::min(to_quad, glm::length(q - reps[r]));
+        const double t = std::clamp(to_quad / (2.0 * sigma), 0.0, 1.0);
+        out[first + r] = {reps[r], (fit_curve_point(reps, near, r, sigma, h) - reps[r]) * (t * t * (3 - 2 * t))};
+      }
+    });
+  }
+  return out;
+}
+
 }  // namespace
 
 uint32_t embedding_hash(uint64_t key) {
@@ -197,7 +322,12 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
   return ok;
 }
 
-ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, const EmbeddingOptions& options) {
+namespace {
+
+// The embedding of every feature, or of the triple curves and quadruple points alone (curves_only: what the curve
+// smoothing measures). owner (optional) receives, per fine point, the feature its closest point ended on.
+ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingOptions& options, bool curves_only,
+                                      std::vector<uint32_t>* owner_out) {
   ClosestPointEmbedding E;
   E.grid = F.grid;
   E.sub = options.sub;
@@ -283,7 +413,8 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
           near.clear();
           for (int mm = 0; mm < M; ++mm)
             if (F.fields[size_t(mm)].at(i, j, kk) > -reach) near.push_back(mm);
-          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int) {
+          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
+            if (curves_only && bits < 3) return;
             const auto it = feature_of.find(s);
             if (it != feature_of.end()) out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
           });
@@ -318,6 +449,7 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
   //    restricted to the feature (bounding curves and points take over beyond them).
   const int sub = options.sub, per_block = sub * sub * sub;
   E.fine.resize(cells.size() * size_t(per_block));
+  std::vector<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
   tbb::parallel_for(tbb::blocked_range<size_t>(0, cells.size()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b) {
       const size_t cell = size_t(cells[b] >> 16);
@@ -373,10 +505,115 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
           feature = it->second;
         }
         E.fine[b * size_t(per_block) + size_t(q)] = glm::vec4(glm::vec3(cp), 0.0f);
+        owner[b * size_t(per_block) + size_t(q)] = feature;
       }
     }
   });
+  if (owner_out) *owner_out = std::move(owner);
   return E;
+}
+
+}  // namespace
+
+ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, const EmbeddingOptions& options) {
+  return build_embedding(F, options, false, nullptr);
+}
+
+std::vector<CurveMove> triple_curve_moves(const IndicatorFields& F, const EmbeddingOptions& options) {
+  if (options.curve_smoothing <= 0) return {};
+  std::vector<uint32_t> owner;
+  const ClosestPointEmbedding curves = build_embedding(F, options, true, &owner);
+  return curve_moves(curves, owner, options.curve_smoothing * F.grid.min_spacing());
+}
+
+size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
+  const Grid& grid = F.grid;
+  const double h = grid.min_spacing();
+  constexpr double kFull = 1.0, kReach = 3.5, kKernel = 1.0;  // voxels: full move within kFull, none beyond kReach
+  // Moves near each voxel, through buckets of a voxel.
+  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
+  auto key_of = [](const glm::ivec3& v) {
+    const glm::ivec3 k = v + (1 << 20);
+    return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
+           uint64_t(uint32_t(k.z) & 0x1fffff);
+  };
+  std::vector<uint8_t> near(grid.voxel_count(), 0);
+  const glm::ivec3 reach = glm::ivec3(glm::ceil(kReach * h / grid.spacing));
+  for (uint32_t r = 0; r < moves.size(); ++r) {
+    if (glm::length(moves[r].move) == 0) continue;
+    const glm::ivec3 v = glm::ivec3(glm::round(moves[r].position / grid.spacing));
+    buckets[key_of(v)].push_back(r);
+    const glm::ivec3 lo = glm::max(v - reach, glm::ivec3(0)), hi = glm::min(v + reach, grid.dims - 1);
+    for (int k = lo.z; k <= hi.z; ++k)
+      for (int j = lo.y; j <= hi.y; ++j)
+        for (int i = lo.x; i <= hi.x; ++i) near[grid.index(i, j, k)] = 1;
+  }
+  std::vector<size_t> voxels;
+  for (size_t v = 0; v < near.size(); ++v)
+    if (near[v]) voxels.push_back(v);
+  // The displacement at each such voxel: the kernel-weighted mean move of the curve points within kReach, times a
+  // fade from 1 within kFull of the nearest curve point (any curve's, moved or not) to 0 at kReach.
+  std::vector<glm::dvec3> shift(voxels.size(), glm::dvec3(0.0));
+  std::unordered_map<uint64_t, std::vector<uint32_t>> all_buckets;
+  for (uint32_t r = 0; r < moves.size(); ++r)
+    all_buckets[key_of(glm::ivec3(glm::round(moves[r].position / grid.spacing)))].push_back(r);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, voxels.size()), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t n = range.begin(); n < range.end(); ++n) {
+      const glm::ivec3 v = grid.voxel(voxels[n]);
+      const glm::dvec3 x = grid.local(glm::dvec3(v));
+      glm::dvec3 sum(0.0);
+      double weight = 0, nearest = std::numeric_limits<double>::infinity();
+      for (int dz = -reach.z; dz <= reach.z; ++dz)
+        for (int dy = -reach.y; dy <= reach.y; ++dy)
+          for (int dx = -reach.x; dx <= reach.x; ++dx) {
+            const auto it = all_buckets.find(key_of(v + glm::ivec3(dx, dy, dz)));
+            if (it == all_buckets.end()) continue;
+            for (uint32_t r : it->second) {
+              const double d = glm::length(moves[r].position - x) / h;
+              nearest = std::min(nearest, d);
+              const double w = std::exp(-0.5 * d * d / (kKernel * kKernel));
+              sum += w * moves[r].move;
+              weight += w;
+            }
+          }
+      if (weight <= 0) continue;
+      const double t = std::clamp((kReach - nearest) / (kReach - kFull), 0.0, 1.0);
+      shift[n] = sum / weight * (t * t * (3 - 2 * t));
+    }
+  });
+  // Every field takes its value at x - shift(x) (Catmull-Rom, from a copy of itself).
+  size_t changed = 0;
+  for (auto& field : F.fields) {
+    const BrickField before = field;
+    std::vector<float> value(voxels.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, voxels.size()), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t n = range.begin(); n < range.end(); ++n) {
+        const glm::ivec3 v = grid.voxel(voxels[n]);
+        value[n] = glm::length(shift[n]) > 0 ? float(before.sample_cubic_local(grid.local(glm::dvec3(v)) - shift[n]))
+                                             : before.at(v.x, v.y, v.z);
+      }
+    });
+    for (size_t n = 0; n < voxels.size(); ++n) {
+      const glm::ivec3 v = grid.voxel(voxels[n]);
+      if (value[n] == before.at(v.x, v.y, v.z)) continue;
+      field.set(v.x, v.y, v.z, std::clamp(value[n], float(-F.band), float(F.band)));
+      ++changed;
+    }
+  }
+  return changed;
+}
+
+CurveSmoothing smooth_triple_curves(IndicatorFields& F, const EmbeddingOptions& options) {
+  const auto moves = triple_curve_moves(F, options);
+  CurveSmoothing out;
+  out.curve_points = moves.size();
+  for (const auto& m : moves) {
+    const double d = glm::length(m.move / F.grid.min_spacing());
+    out.moved_points += d > 0;
+    out.largest_move = std::max(out.largest_move, d);
+  }
+  out.changed_values = warp_fields(F, moves);
+  return out;
 }
 
 }  // namespace cpmesh::fields

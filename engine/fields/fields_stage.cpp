@@ -13,6 +13,7 @@ FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const Fields
   r.report.indicator_seconds = seconds_since(t);
   r.report.indicator_bytes = r.fields.memory_bytes();
   t = clock::now();
+  r.report.curve_smoothing = smooth_triple_curves(r.fields, options.embedding);
   r.embedding = build_closest_point_embedding(r.fields, options.embedding);
   r.report.embedding_seconds = seconds_since(t);
   t = clock::now();

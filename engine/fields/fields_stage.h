@@ -16,6 +16,7 @@ struct FieldsReport {
   size_t indicator_bytes = 0, embedding_bytes = 0;
   size_t interfaces = 0, triple_curves = 0, quadruple_points = 0;
   SizingStats sizing;
+  CurveSmoothing curve_smoothing;  // done between the indicator fields and the embedding; its time is the embedding's
 };
 
 struct FieldsResult {

@@ -136,8 +136,8 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
   const auto [mean_curve, worst_curve] = curve_errors(wb, fields, E);
   MESSAGE("triple-curve closest points: distance to the analytic curves mean " << mean_curve << ", max " << worst_curve
                                                                               << " voxel");
-  // Issue 5 asks for 0.75 voxel at most: measured mean 0.30, max 0.67 here (0.70 at 64^3 and 96^3, but 0.83 at 40^3
-  // and 128^3: the curves where a material's flat side meets two wedge edges still move ~0.25 voxel on average).
+  // Issue 5 asks for 0.75 voxel at most: measured mean 0.26, max 0.62 here without the curve smoothing (build_fields
+  // adds it: 0.24 / 0.55, see its test below; from 40^3 to 128^3 at most 0.72 with it, 0.82 without).
   CHECK(mean_curve < 0.4);
   CHECK(worst_curve < 0.75);
   REQUIRE(E.quadruple_points.size() == 4);
@@ -191,6 +191,55 @@ TEST_CASE("wedge ball: the junction correction levels the fields at the triple c
   CHECK(mean1 < 0.9 * mean0);  // measured 0.31 -> 0.26
   CHECK(max1 < 0.75);     // measured 0.83 -> 0.72
   CHECK(max1 < max0);
+}
+
+TEST_CASE("curve smoothing: the wedge ball's curves move towards the analytic ones, the fields away from them stay") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
+  const auto F0 = build_indicator_fields(wb.grid, wb.labels.data());
+  auto F1 = F0;
+  const auto moves = triple_curve_moves(F0);
+  const auto done = smooth_triple_curves(F1);
+  REQUIRE(done.curve_points == moves.size());
+  CHECK(done.moved_points > done.curve_points / 2);
+  CHECK(done.largest_move <= 0.5 + 1e-9);  // larger moves are refused
+  CHECK(done.changed_values > 0);
+  const auto E0 = build_closest_point_embedding(F0), E1 = build_closest_point_embedding(F1);
+  const auto [mean0, max0] = curve_errors(wb, F0, E0);
+  const auto [mean1, max1] = curve_errors(wb, F1, E1);
+  MESSAGE(done.moved_points << " of " << done.curve_points << " curve points moved, by " << done.largest_move
+                            << " voxel at most; curve points to the analytic curves: mean " << mean0 << " -> " << mean1
+                            << ", max " << max0 << " -> " << max1 << " voxel");
+  CHECK(mean1 < mean0 - 0.01);  // measured 0.255 -> 0.239
+  CHECK(max1 < max0 - 0.03);    // measured 0.618 -> 0.548
+  // The quadruple points end the curves and stay where they were.
+  REQUIRE(E1.quadruple_points.size() == E0.quadruple_points.size());
+  for (size_t q = 0; q < E0.quadruple_points.size(); ++q)
+    CHECK(glm::length(E1.quadruple_points[q].position - E0.quadruple_points[q].position) < 0.1);
+  // Beyond 3.5 voxels of every curve point the fields are unchanged.
+  std::vector<uint8_t> near(wb.grid.voxel_count(), 0);
+  for (const auto& m : moves) {
+    const glm::ivec3 c = glm::ivec3(glm::round(m.position / wb.grid.spacing));
+    for (int z = -4; z <= 4; ++z)
+      for (int y = -4; y <= 4; ++y)
+        for (int x = -4; x <= 4; ++x) {
+          const glm::ivec3 v = c + glm::ivec3(x, y, z);
+          if (wb.grid.inside(v.x, v.y, v.z)) near[wb.grid.index(v.x, v.y, v.z)] = 1;
+        }
+  }
+  size_t far = 0, differ = 0;
+  for (size_t v = 0; v < near.size(); ++v) {
+    if (near[v]) continue;
+    ++far;
+    const glm::ivec3 c = wb.grid.voxel(v);
+    for (size_t m = 0; m < F0.fields.size(); ++m) differ += F0.fields[m].at(c.x, c.y, c.z) != F1.fields[m].at(c.x, c.y, c.z);
+  }
+  CHECK(far > near.size() / 2);
+  CHECK(differ == 0);
+  // Off: nothing moves.
+  EmbeddingOptions off;
+  off.curve_smoothing = 0;
+  auto F2 = F0;
+  CHECK(smooth_triple_curves(F2, off).changed_values == 0);
 }
 
 TEST_CASE("junction correction: no offsets where thin layers make the junctions") {

@@ -53,6 +53,11 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
                   "curves lie 0.24 instead of 0.31 voxel off on average, for about 10% more particles)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub->add_option("--curve-smoothing", f.embedding.curve_smoothing,
+                  "Sigma, voxels, of the local quadratic fit that smooths triple curves along themselves; the fields "
+                  "near the curves are moved with them (0: off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--band", f.indicator.band, "Narrow band of the indicator fields, voxels")->capture_default_str();
   sub->add_option("--subcells", f.embedding.sub, "Closest point embedding: fine points per voxel and axis (1/S)")
       ->check(CLI::Range(1, 4))->capture_default_str();
@@ -160,6 +165,11 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
                               {"sizing", rep.sizing_seconds}};
               j["bytes"] = {{"indicator_fields", rep.indicator_bytes}, {"embedding", rep.embedding_bytes}};
               j["embedding"] = {{"subcells", E.sub}, {"blocks", E.block_count()}};
+              j["curve_smoothing"] = {{"sigma_voxels", o->fields.embedding.curve_smoothing},
+                                      {"curve_points", rep.curve_smoothing.curve_points},
+                                      {"moved_points", rep.curve_smoothing.moved_points},
+                                      {"largest_move_voxels", rep.curve_smoothing.largest_move},
+                                      {"changed_field_values", rep.curve_smoothing.changed_values}};
               j["sizing"] = {{"min", rep.sizing.h_min}, {"mean", rep.sizing.h_mean}, {"max", rep.sizing.h_max},
                              {"curvature_limited", rep.sizing.curvature_limited},
                              {"thickness_limited", rep.sizing.thickness_limited}, {"clamped", rep.sizing.clamped}};
@@ -182,6 +192,9 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
             std::printf("  tightening r = %g voxel: %llu voxel centres changed material, %llu voxels in thin parts kept\n",
                         o->fields.indicator.tighten_radius, (unsigned long long)moved,
                         (unsigned long long)r.fields.protected_voxels);
+            std::printf("  curve smoothing sigma = %g voxel: %zu of %zu curve points moved, by %.2f voxel at most\n",
+                        o->fields.embedding.curve_smoothing, rep.curve_smoothing.moved_points,
+                        rep.curve_smoothing.curve_points, rep.curve_smoothing.largest_move);
             std::printf("  sizing h: min %.3g, mean %.3g, max %.3g (physical units)\n", rep.sizing.h_min,
                         rep.sizing.h_mean, rep.sizing.h_max);
             std::printf("  wrote %s\n", o->out.c_str());
