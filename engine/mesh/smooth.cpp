@@ -270,6 +270,25 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
 
   const bool had_regions = !region.empty();
   if (!had_regions) region.assign(tets.size(), 0);
+  // Replaces the tets in `old_slots` by `made`, all of region r: the old slots are reused first, the rest appended,
+  // and slots left over are marked dead (dropped at the end).
+  auto replace = [&](const std::vector<uint32_t>& old_slots, const std::vector<std::array<uint32_t, 4>>& made, int r) {
+    for (uint32_t t : old_slots) unlink(t);
+    for (size_t i = 0; i < made.size(); ++i) {
+      uint32_t slot;
+      if (i < old_slots.size()) {
+        slot = old_slots[i];
+        tets[slot] = made[i];
+      } else {
+        slot = uint32_t(tets.size());
+        tets.push_back(made[i]);
+        region.push_back(r);
+      }
+      region[slot] = r;
+      link(slot);
+    }
+    for (size_t i = made.size(); i < old_slots.size(); ++i) tets[old_slots[i]] = {dead, dead, dead, dead};
+  };
   // Edge removal: the n tets around an edge (a, b) of the sliver (all of one region, no kept face among the n faces
   // on the edge) become the 2n - 4 tets joining a and b to a fan triangulation of the ring of their other vertices.
   // A sliver's two long edges carry its near-180-degree dihedral angles; removing one removes the sliver with no new
@@ -356,22 +375,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
         }
       }
     if (best < 0) return false;
-    const int r = region[start];
-    for (uint32_t t : best_ring_tets) unlink(t);
-    for (size_t i = 0; i < best_new.size(); ++i) {
-      uint32_t slot;
-      if (i < best_ring_tets.size()) {
-        slot = best_ring_tets[i];
-        tets[slot] = best_new[i];
-      } else {
-        slot = uint32_t(tets.size());
-        tets.push_back(best_new[i]);
-        region.push_back(r);
-      }
-      region[slot] = r;
-      link(slot);
-    }
-    for (size_t i = best_new.size(); i < best_ring_tets.size(); ++i) tets[best_ring_tets[i]] = {dead, dead, dead, dead};
+    replace(best_ring_tets, best_new, region[start]);
     return true;
   };
   std::mt19937 rng(54321);
@@ -464,26 +468,11 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
       // Replace: the first cavity slots are reused, the rest appended.
       const uint32_t v = uint32_t(P.size());
       P.push_back(best_at);
-      const int r = region[start];
-      for (uint32_t t : cavity) unlink(t);
-      for (size_t i = 0; i < boundary.size(); ++i) {
-        const auto& b = boundary[i];
-        // Same orientation as the tets replaced.
-        std::array<uint32_t, 4> k = (b.sign > 0) == positive ? std::array<uint32_t, 4>{b.f[0], b.f[1], b.f[2], v}
-                                                             : std::array<uint32_t, 4>{b.f[0], b.f[2], b.f[1], v};
-        uint32_t slot;
-        if (i < cavity.size()) {
-          slot = cavity[i];
-          tets[slot] = k;
-        } else {
-          slot = uint32_t(tets.size());
-          tets.push_back(k);
-          region.push_back(r);
-        }
-        region[slot] = r;
-        link(slot);
-      }
-      for (size_t i = boundary.size(); i < cavity.size(); ++i) tets[cavity[i]] = {dead, dead, dead, dead};
+      std::vector<std::array<uint32_t, 4>> cone;
+      for (const auto& b : boundary)  // same orientation as the tets replaced
+        cone.push_back((b.sign > 0) == positive ? std::array<uint32_t, 4>{b.f[0], b.f[1], b.f[2], v}
+                                                : std::array<uint32_t, 4>{b.f[0], b.f[2], b.f[1], v});
+      replace(cavity, cone, region[start]);
       ++report.inserted;
       done = true;
     }

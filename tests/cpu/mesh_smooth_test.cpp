@@ -115,21 +115,32 @@ TEST_CASE("improve_tets: a free vertex near a face of a cube moves back inside, 
   CHECK(P == settled);
 }
 
+namespace {
+
+// Six times the signed volume of tet t.
+double orient(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
+  return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
+}
+
+// Gives every tet the first one's orientation, as a mesher does; returns whether that is positive, and the total
+// volume (times six).
+std::pair<bool, double> orient_like_first(const std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets) {
+  for (auto& t : tets)
+    if ((orient(P, t) > 0) != (orient(P, tets[0]) > 0)) std::swap(t[0], t[1]);
+  double volume = 0;
+  for (const auto& t : tets) volume += std::fabs(orient(P, t));
+  return {orient(P, tets[0]) > 0, volume};
+}
+
+}  // namespace
+
 TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled around one new vertex") {
   // Two kept triangles abc and abd fold into a shallow valley along ab; the flat tet abcd fills the valley, and two
   // tets join its top faces to a vertex e above. No vertex can move (all five are kept), so only a new one helps.
   std::vector<glm::dvec3> P = {{0, 0, 0}, {0, 2, 0}, {-1.5, 1, 0.12}, {1.5, 1, 0.12}, {0, 1, 1.5}};
   const uint32_t a = 0, b = 1, c = 2, d = 3, e = 4;
   std::vector<std::array<uint32_t, 4>> tets = {{a, b, c, d}, {a, c, d, e}, {b, d, c, e}};
-  auto orient = [&](const std::array<uint32_t, 4>& t) {
-    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
-  };
-  // Same orientation for all three, as a mesher gives them.
-  for (auto& t : tets)
-    if ((orient(t) > 0) != (orient(tets[0]) > 0)) std::swap(t[0], t[1]);
-  const bool positive = orient(tets[0]) > 0;
-  double volume = 0;
-  for (const auto& t : tets) volume += std::fabs(orient(t)) / 6;
+  const auto [positive, volume] = orient_like_first(P, tets);
   std::vector<int> region = {7, 7, 7};
   const std::vector<std::array<uint32_t, 3>> kept = {{a, b, c}, {a, b, d}};
   const double before = mesh::tet_stats(P, tets).min_dihedral_deg;
@@ -163,8 +174,8 @@ TEST_CASE("split_slivers: a flat tet between two kept triangles is refilled arou
   REQUIRE(region.size() == tets.size());
   double new_volume = 0;
   for (const auto& t : tets) {
-    CHECK((orient(t) > 0) == positive);
-    new_volume += std::fabs(orient(t)) / 6;
+    CHECK((orient(P, t) > 0) == positive);
+    new_volume += std::fabs(orient(P, t));
   }
   CHECK(new_volume == doctest::Approx(volume).epsilon(1e-9));
   for (int g : region) CHECK(g == 7);
@@ -189,14 +200,7 @@ TEST_CASE("split_slivers: a sliver among four surface vertices goes by edge remo
   std::vector<glm::dvec3> P = {{0, 0, eps}, {1, 0, -eps}, {1, 1, eps}, {0, 1, -eps}, {0.5, 0.5, 1.0}};
   const uint32_t a = 0, b = 1, c = 2, d = 3, e = 4;
   std::vector<std::array<uint32_t, 4>> tets = {{a, b, c, d}, {a, c, d, e}, {a, c, e, b}};
-  auto orient = [&](const std::array<uint32_t, 4>& t) {
-    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
-  };
-  for (auto& t : tets)
-    if ((orient(t) > 0) != (orient(tets[0]) > 0)) std::swap(t[0], t[1]);
-  const bool positive = orient(tets[0]) > 0;
-  double volume = 0;
-  for (const auto& t : tets) volume += std::fabs(orient(t));
+  const auto [positive, volume] = orient_like_first(P, tets);
   const double before = mesh::tet_stats(P, tets).min_dihedral_deg;
   REQUIRE(before < 12);
   // The outer faces may be kept (interface triangles): only the faces on the removed edge may not.
@@ -216,8 +220,8 @@ TEST_CASE("split_slivers: a sliver among four surface vertices goes by edge remo
   CHECK(after > 30);
   double new_volume = 0;
   for (const auto& t : T) {
-    CHECK((orient(t) > 0) == positive);
-    new_volume += std::fabs(orient(t));
+    CHECK((orient(P, t) > 0) == positive);
+    new_volume += std::fabs(orient(P, t));
     CHECK(std::count(t.begin(), t.end(), a) + std::count(t.begin(), t.end(), c) == 1);  // edge a-c is gone
   }
   CHECK(new_volume == doctest::Approx(volume).epsilon(1e-12));
