@@ -245,6 +245,31 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(colours.size() > 50);
 }
 
+TEST_CASE_FIXTURE(GpuFixture, "wedge ball at other seeds: every run manifold and closed with tets over 10 degrees") {
+  // The meshes must not depend on luck: the 40^3 wedge ball once lost its tet mesh with seed 4 (before the curve
+  // smoothing; with it, seed 1 did: a hull face sampled its outside inside a material), and the bundled 48^3 one had
+  // a 9.2-degree sliver that only edge removal fixes. Seed 1 is the test above.
+  const auto volume = synth(io::SynthShape::wedge_ball, 40, 0);
+  for (uint32_t seed : {2u, 3u, 4u}) {
+    CAPTURE(seed);
+    mesh::MeshOptions options;
+    options.population.seed = seed;
+    const auto r = mesh::mesh_volume(ctx, volume, options);
+    const auto& rep = r.report;
+    MESSAGE("seed " << seed << ": " << rep.particles << " particles, " << rep.interfaces_manifold << " of "
+                    << rep.interfaces.size() << " interfaces manifold, " << rep.materials_closed << " of "
+                    << rep.materials.size() << " materials closed, radius ratio " << rep.surface.mean_radius_ratio
+                    << " / " << rep.surface.min_radius_ratio << ", dihedral " << rep.volume.min_dihedral_deg);
+    CHECK(rep.interfaces_manifold == rep.interfaces.size());
+    CHECK(rep.materials_closed == rep.materials.size());
+    CHECK(rep.wrong_faces == 0);
+    CHECK(rep.volume_error.empty());
+    CHECK(rep.volume.min_dihedral_deg >= 10);
+    CHECK(rep.surface.min_radius_ratio > 0.2);
+    CHECK(rep.surface.mean_radius_ratio >= 0.93);
+  }
+}
+
 TEST_CASE("materials: keep, merge and drop labels; a missing label is named") {
   io::LabelVolume v;
   v.dims = {4, 1, 1};
