@@ -192,17 +192,20 @@ glm::dvec3 fit_curve_point(const std::vector<glm::dvec3>& points, const std::vec
   return p + move;
 }
 
+// A 64-bit key of an integer cell (21 bits per axis, offset so negative cells work), for hashed buckets.
+uint64_t cell_key(const glm::ivec3& v) {
+  const glm::ivec3 k = v + (1 << 20);
+  return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
+         uint64_t(uint32_t(k.z) & 0x1fffff);
+}
+
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
 // closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
 std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner, double sigma) {
   const double h = E.grid.min_spacing();
   const double cell = 0.25 * h;
   const double reach = 3.0 * sigma;
-  auto key_of = [](const glm::dvec3& x, double size) {
-    const glm::ivec3 k = glm::ivec3(glm::floor(x / size)) + (1 << 20);
-    return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
-           uint64_t(uint32_t(k.z) & 0x1fffff);
-  };
+  auto key_of = [](const glm::dvec3& x, double size) { return cell_key(glm::ivec3(glm::floor(x / size))); };
   std::vector<CurveMove> out;
   for (uint32_t fid = 0; fid < E.features.size(); ++fid) {
     const Feature& feature = E.features[fid];
@@ -527,22 +530,16 @@ std::vector<CurveMove> triple_curve_moves(const IndicatorFields& F, const Embedd
 }
 
 size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
+  if (std::none_of(moves.begin(), moves.end(), [](const CurveMove& m) { return glm::length(m.move) > 0; })) return 0;
   const Grid& grid = F.grid;
   const double h = grid.min_spacing();
   constexpr double kFull = 1.0, kReach = 3.5, kKernel = 1.0;  // voxels: full move within kFull, none beyond kReach
-  // Moves near each voxel, through buckets of a voxel.
-  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
-  auto key_of = [](const glm::ivec3& v) {
-    const glm::ivec3 k = v + (1 << 20);
-    return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
-           uint64_t(uint32_t(k.z) & 0x1fffff);
-  };
+  // The voxels within reach of a moved curve point.
   std::vector<uint8_t> near(grid.voxel_count(), 0);
   const glm::ivec3 reach = glm::ivec3(glm::ceil(kReach * h / grid.spacing));
   for (uint32_t r = 0; r < moves.size(); ++r) {
     if (glm::length(moves[r].move) == 0) continue;
     const glm::ivec3 v = glm::ivec3(glm::round(moves[r].position / grid.spacing));
-    buckets[key_of(v)].push_back(r);
     const glm::ivec3 lo = glm::max(v - reach, glm::ivec3(0)), hi = glm::min(v + reach, grid.dims - 1);
     for (int k = lo.z; k <= hi.z; ++k)
       for (int j = lo.y; j <= hi.y; ++j)
@@ -554,9 +551,9 @@ size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
   // The displacement at each such voxel: the kernel-weighted mean move of the curve points within kReach, times a
   // fade from 1 within kFull of the nearest curve point (any curve's, moved or not) to 0 at kReach.
   std::vector<glm::dvec3> shift(voxels.size(), glm::dvec3(0.0));
-  std::unordered_map<uint64_t, std::vector<uint32_t>> all_buckets;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;  // every curve point, by its nearest voxel
   for (uint32_t r = 0; r < moves.size(); ++r)
-    all_buckets[key_of(glm::ivec3(glm::round(moves[r].position / grid.spacing)))].push_back(r);
+    buckets[cell_key(glm::ivec3(glm::round(moves[r].position / grid.spacing)))].push_back(r);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, voxels.size()), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t n = range.begin(); n < range.end(); ++n) {
       const glm::ivec3 v = grid.voxel(voxels[n]);
@@ -566,8 +563,8 @@ size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
       for (int dz = -reach.z; dz <= reach.z; ++dz)
         for (int dy = -reach.y; dy <= reach.y; ++dy)
           for (int dx = -reach.x; dx <= reach.x; ++dx) {
-            const auto it = all_buckets.find(key_of(v + glm::ivec3(dx, dy, dz)));
-            if (it == all_buckets.end()) continue;
+            const auto it = buckets.find(cell_key(v + glm::ivec3(dx, dy, dz)));
+            if (it == buckets.end()) continue;
             for (uint32_t r : it->second) {
               const double d = glm::length(moves[r].position - x) / h;
               nearest = std::min(nearest, d);
