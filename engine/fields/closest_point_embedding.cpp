@@ -273,16 +273,43 @@ uint32_t embedding_hash(uint64_t key) {
   return h;
 }
 
-int64_t ClosestPointEmbedding::find_block(size_t cell, uint32_t feature) const {
+void build_hash_table(const std::vector<uint64_t>& distinct_keys, uint32_t max_probes, std::vector<uint64_t>& keys,
+                      std::vector<uint32_t>& values) {
+  size_t capacity = 16;
+  while (capacity < 2 * distinct_keys.size()) capacity *= 2;
+  while (true) {
+    keys.assign(capacity, ClosestPointEmbedding::kEmpty);
+    values.assign(capacity, 0);
+    bool fits = true;
+    for (size_t i = 0; i < distinct_keys.size() && fits; ++i) {
+      size_t slot = embedding_hash(distinct_keys[i]) & (capacity - 1);
+      uint32_t probe = 0;
+      while (keys[slot] != ClosestPointEmbedding::kEmpty) {
+        slot = (slot + 1) & (capacity - 1);
+        if (++probe >= max_probes) fits = false;
+      }
+      keys[slot] = distinct_keys[i];
+      values[slot] = uint32_t(i);
+    }
+    if (fits) return;
+    capacity *= 2;
+  }
+}
+
+int64_t find_in_hash_table(const std::vector<uint64_t>& keys, const std::vector<uint32_t>& values, uint64_t key,
+                           uint32_t max_probes) {
   if (keys.empty()) return -1;
-  const uint64_t key = (uint64_t(cell) << 16) | feature;
   const size_t mask = keys.size() - 1;
   size_t slot = embedding_hash(key) & mask;
-  for (uint32_t probe = 0; probe < kMaxProbes; ++probe, slot = (slot + 1) & mask) {
-    if (keys[slot] == key) return blocks[slot];
-    if (keys[slot] == kEmpty) return -1;
+  for (uint32_t probe = 0; probe < max_probes; ++probe, slot = (slot + 1) & mask) {
+    if (keys[slot] == key) return values[slot];
+    if (keys[slot] == ClosestPointEmbedding::kEmpty) return -1;
   }
   return -1;
+}
+
+int64_t ClosestPointEmbedding::find_block(size_t cell, uint32_t feature) const {
+  return find_in_hash_table(keys, blocks, (uint64_t(cell) << 16) | feature, kMaxProbes);
 }
 
 int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 4> materials) const {
@@ -427,26 +454,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   for (auto& part : local_entries) cells.insert(cells.end(), part.begin(), part.end());
   std::sort(cells.begin(), cells.end());
 
-  // 4. Hash table: capacity a power of two at least twice the entries; grow until every probe run is short.
-  size_t capacity = 16;
-  while (capacity < 2 * cells.size()) capacity *= 2;
-  while (true) {
-    E.keys.assign(capacity, ClosestPointEmbedding::kEmpty);
-    E.blocks.assign(capacity, 0);
-    bool fits = true;
-    for (size_t b = 0; b < cells.size() && fits; ++b) {
-      size_t slot = embedding_hash(cells[b]) & (capacity - 1);
-      uint32_t probe = 0;
-      while (E.keys[slot] != ClosestPointEmbedding::kEmpty) {
-        slot = (slot + 1) & (capacity - 1);
-        if (++probe >= ClosestPointEmbedding::kMaxProbes) fits = false;
-      }
-      E.keys[slot] = cells[b];
-      E.blocks[slot] = uint32_t(b);
-    }
-    if (fits) break;
-    capacity *= 2;
-  }
+  // 4. Hash table (build_hash_table): every key within kMaxProbes of its home slot.
+  build_hash_table(cells, ClosestPointEmbedding::kMaxProbes, E.keys, E.blocks);
 
   // 5. Fine level: the closest point of every fine point of every block, by Newton projection on the smooth fields,
   //    restricted to the feature (bounding curves and points take over beyond them).

@@ -86,6 +86,16 @@ struct ClosestPointEmbedding {
 
 uint32_t embedding_hash(uint64_t key);  // shared with shaders/cp_lookup.comp (same arithmetic)
 
+// The open-addressing table behind the embedding's coarse level (and the sizing field's cell index): slots of
+// `keys` (kEmpty when free) and `values`, linear probing from embedding_hash(key). Built from distinct keys, value i
+// for keys[i]; the capacity is a power of two at least twice the keys, doubled until every key sits within
+// max_probes of its home slot (the GPU lookup gives up after that many).
+void build_hash_table(const std::vector<uint64_t>& distinct_keys, uint32_t max_probes, std::vector<uint64_t>& keys,
+                      std::vector<uint32_t>& values);
+// values of `key`, or -1.
+int64_t find_in_hash_table(const std::vector<uint64_t>& keys, const std::vector<uint32_t>& values, uint64_t key,
+                           uint32_t max_probes);
+
 ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& fields, const EmbeddingOptions& options = {});
 
 // Triple curves smoothed along themselves, done on the fields before the embedding is built (fields/fields_stage.cpp).

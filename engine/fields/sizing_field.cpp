@@ -204,23 +204,11 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
   // Cell -> its index in `cells`, by open addressing (the grading and the fine points look up ~30 M cells on a
   // 128^3 volume; a binary search each was a third of this stage).
-  size_t capacity = 16;
-  while (capacity < 2 * cells.size()) capacity *= 2;
-  constexpr uint64_t kNoCell = ~uint64_t(0);
-  std::vector<uint64_t> slot_key(capacity, kNoCell);
-  std::vector<uint32_t> slot_value(capacity, 0);
-  for (size_t c = 0; c < cells.size(); ++c) {
-    size_t slot = embedding_hash(cells[c]) & (capacity - 1);
-    while (slot_key[slot] != kNoCell) slot = (slot + 1) & (capacity - 1);
-    slot_key[slot] = cells[c];
-    slot_value[slot] = uint32_t(c);
-  }
-  auto cell_slot = [&](uint64_t cell) -> int64_t {
-    for (size_t slot = embedding_hash(cell) & (capacity - 1);; slot = (slot + 1) & (capacity - 1)) {
-      if (slot_key[slot] == cell) return int64_t(slot_value[slot]);
-      if (slot_key[slot] == kNoCell) return -1;
-    }
-  };
+  std::vector<uint64_t> slot_key;
+  std::vector<uint32_t> slot_value;
+  constexpr uint32_t kProbes = 64;
+  build_hash_table(cells, kProbes, slot_key, slot_value);
+  auto cell_slot = [&](uint64_t cell) { return find_in_hash_table(slot_key, slot_value, cell, kProbes); };
   SizingStats stats;
   std::vector<double> hc(cells.size(), h_max);
   for (size_t b = 0; b < blocks; ++b) {
