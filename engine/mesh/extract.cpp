@@ -1,5 +1,7 @@
 #include "mesh/extract.h"
 
+#include "mesh/face_key.h"
+
 #include <algorithm>
 #include <numeric>
 
@@ -23,15 +25,12 @@ glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dve
 }
 
 Adjacency build_adjacency(const Tets& T) {
-  if (T.points.size() >= (size_t(1) << 21)) throw std::runtime_error("tet adjacency: at most 2M vertices");
-  std::vector<std::pair<uint64_t, uint32_t>> faces;  // (sorted vertex key, tet * 4 + corner)
+  std::vector<std::pair<FaceKey, uint32_t>> faces;  // (face, tet * 4 + corner)
   faces.reserve(T.tets.size() * 4);
   for (size_t t = 0; t < T.tets.size(); ++t)
-    for (int c = 0; c < 4; ++c) {
-      uint32_t v[3] = {T.tets[t][size_t(kFace[c][0])], T.tets[t][size_t(kFace[c][1])], T.tets[t][size_t(kFace[c][2])]};
-      std::sort(v, v + 3);
-      faces.push_back({(uint64_t(v[0]) << 42) | (uint64_t(v[1]) << 21) | uint64_t(v[2]), uint32_t(t * 4 + size_t(c))});
-    }
+    for (int c = 0; c < 4; ++c)
+      faces.push_back({FaceKey({T.tets[t][size_t(kFace[c][0])], T.tets[t][size_t(kFace[c][1])], T.tets[t][size_t(kFace[c][2])]}),
+                       uint32_t(t * 4 + size_t(c))});
   std::sort(faces.begin(), faces.end());
   Adjacency adj;
   adj.neighbour.assign(T.tets.size() * 4, Adjacency::kHull);

@@ -10,6 +10,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/face_key.h"
 #include "mesh/quality.h"
 #include "ref/cp_lookup.h"
 
@@ -201,17 +202,6 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
 
 namespace {
 
-struct FaceKey {
-  std::array<uint32_t, 3> v;
-  explicit FaceKey(std::array<uint32_t, 3> f) : v(f) { std::sort(v.begin(), v.end()); }
-  bool operator==(const FaceKey& o) const { return v == o.v; }
-};
-struct FaceHash {
-  size_t operator()(const FaceKey& k) const {
-    return std::hash<uint64_t>()((uint64_t(k.v[0]) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(k.v[1]) << 21) ^ uint64_t(k.v[2]) * 0xC2B2AE3D27D4EB4Full);
-  }
-};
-
 // The face of tet t opposite its vertex i.
 std::array<uint32_t, 3> face_of(const std::array<uint32_t, 4>& t, int i) {
   std::array<uint32_t, 3> f{};
@@ -241,10 +231,10 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   for (uint32_t t = 0; t < tets.size(); ++t)
     if (tet_min_angle(tets[t]) < target) bad.push_back(t);
   if (bad.empty()) return report;  // nothing to do: no face maps
-  std::unordered_set<FaceKey, FaceHash> kept_faces;
+  std::unordered_set<FaceKey, FaceKeyHash> kept_faces;
   for (const auto& f : kept) kept_faces.insert(FaceKey(f));
   // Face -> the (at most two) tets on it.
-  std::unordered_map<FaceKey, std::array<uint32_t, 2>, FaceHash> faces;
+  std::unordered_map<FaceKey, std::array<uint32_t, 2>, FaceKeyHash> faces;
   auto link = [&](uint32_t t) {
     for (int i = 0; i < 4; ++i) {
       auto [it, fresh] = faces.try_emplace(FaceKey(face_of(tets[t], i)), std::array<uint32_t, 2>{t, dead});

@@ -57,6 +57,30 @@ TEST_CASE("smooth_interfaces: random points on a sphere become a better mesh on 
   CHECK(I.vertices == kept);
 }
 
+TEST_CASE("build_adjacency: two tets meet on their shared face, with vertex indices past 2^21") {
+  // The adjacency once packed a face into 21 bits per vertex and refused meshes of 2M points or more, while a run
+  // may make up to 5M particles (MeshOptions::max_particles).
+  mesh::Tets T;
+  const uint32_t base = (1u << 21) + 5;
+  T.points.resize(size_t(base) + 5, glm::dvec3(0.0));
+  T.points[base + 0] = {0, 0, 0};
+  T.points[base + 1] = {1, 0, 0};
+  T.points[base + 2] = {0, 1, 0};
+  T.points[base + 3] = {0, 0, 1};
+  T.points[base + 4] = {0, 0, -1};
+  T.tets = {{base + 0, base + 1, base + 2, base + 3}, {base + 1, base + 0, base + 2, base + 4}};
+  const auto adj = mesh::build_adjacency(T);
+  size_t shared = 0;
+  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
+    if (adj.neighbour[tc] == mesh::Adjacency::kHull) continue;
+    ++shared;
+    CHECK(adj.neighbour[tc] / 4 != tc / 4);
+    CHECK(adj.neighbour[adj.neighbour[tc]] == tc);
+    CHECK(T.tets[tc / 4][tc % 4] == (tc / 4 == 0 ? base + 3 : base + 4));  // the face opposite the apex
+  }
+  CHECK(shared == 2);
+}
+
 TEST_CASE("hull_materials: a coarse hull under a curved surface still sees the outside material") {
   // An icosahedron on a sphere of radius 10 voxels: its faces lie up to 2 voxels inside the sphere, so half a voxel
   // beyond them is still the sphere's material. Every hull face must see the background instead, or the sphere's
