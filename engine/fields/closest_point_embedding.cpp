@@ -192,13 +192,6 @@ glm::dvec3 fit_curve_point(const std::vector<glm::dvec3>& points, const std::vec
   return p + move;
 }
 
-// A 64-bit key of an integer cell (21 bits per axis, offset so negative cells work), for hashed buckets.
-uint64_t cell_key(const glm::ivec3& v) {
-  const glm::ivec3 k = v + (1 << 20);
-  return (uint64_t(uint32_t(k.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(k.y) & 0x1fffff) << 21) |
-         uint64_t(uint32_t(k.z) & 0x1fffff);
-}
-
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
 // closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
 std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner, double sigma) {

@@ -13,6 +13,13 @@
 
 namespace cpmesh::fields {
 
+// A 64-bit key of an integer cell of any uniform grid (21 bits per axis, two's complement, so cells within 2^20 of
+// the origin either way are distinct), for hashed buckets of points.
+inline uint64_t cell_key(const glm::ivec3& c) {
+  return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) |
+         uint64_t(uint32_t(c.z) & 0x1fffff);
+}
+
 struct Grid {
   glm::ivec3 dims{0};
   glm::dvec3 spacing{1.0};

@@ -79,10 +79,7 @@ HostIndex::HostIndex(const fields::ClosestPointEmbedding& E, double cell) : cell
 
 glm::ivec3 HostIndex::cell_of(const glm::vec3& p) const { return glm::ivec3(glm::floor(glm::dvec3(p) / cell_)); }
 
-uint64_t HostIndex::key(const glm::ivec3& c) {
-  return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) |
-         uint64_t(uint32_t(c.z) & 0x1fffff);
-}
+uint64_t HostIndex::key(const glm::ivec3& c) { return fields::cell_key(c); }
 
 uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
   const uint32_t id = uint32_t(entries_.size());
