@@ -553,22 +553,26 @@ size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
   // The displacement at each such voxel: the kernel-weighted mean move of the curve points within kReach, times a
   // fade from 1 within kFull of the nearest curve point (any curve's, moved or not) to 0 at kReach.
   std::vector<glm::dvec3> shift(voxels.size(), glm::dvec3(0.0));
-  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;  // every curve point, by its nearest voxel
+  // Every curve point, in buckets kReach voxels wide: the 27 around a voxel's hold all points within kReach of it.
+  const double bucket = kReach * h;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
   for (uint32_t r = 0; r < moves.size(); ++r)
-    buckets[cell_key(glm::ivec3(glm::round(moves[r].position / grid.spacing)))].push_back(r);
+    buckets[cell_key(glm::ivec3(glm::floor(moves[r].position / bucket)))].push_back(r);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, voxels.size()), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t n = range.begin(); n < range.end(); ++n) {
       const glm::ivec3 v = grid.voxel(voxels[n]);
       const glm::dvec3 x = grid.local(glm::dvec3(v));
+      const glm::ivec3 home = glm::ivec3(glm::floor(x / bucket));
       glm::dvec3 sum(0.0);
       double weight = 0, nearest = std::numeric_limits<double>::infinity();
-      for (int dz = -reach.z; dz <= reach.z; ++dz)
-        for (int dy = -reach.y; dy <= reach.y; ++dy)
-          for (int dx = -reach.x; dx <= reach.x; ++dx) {
-            const auto it = buckets.find(cell_key(v + glm::ivec3(dx, dy, dz)));
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const auto it = buckets.find(cell_key(home + glm::ivec3(dx, dy, dz)));
             if (it == buckets.end()) continue;
             for (uint32_t r : it->second) {
               const double d = glm::length(moves[r].position - x) / h;
+              if (d >= kReach) continue;
               nearest = std::min(nearest, d);
               const double w = std::exp(-0.5 * d * d / (kKernel * kKernel));
               sum += w * moves[r].move;
