@@ -94,19 +94,36 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
     bz[a] = z / kBrick;
     oz[a] = z % kBrick;
   }
+  // The samples span at most two bricks per axis: resolve those (up to 8) once per field, then index within them.
+  int sx[4], sy[4], sz[4];  // which of the two bricks, per axis and sample
+  for (int a = 0; a < 4; ++a) {
+    sx[a] = bx[a] - bx[0];
+    sy[a] = by[a] - by[0];
+    sz[a] = bz[a] - bz[0];
+  }
   for (int m = 0; m < count; ++m) {
     const BrickField& f = *fields[m];
+    const float* data[2][2][2];
+    float constant[2][2][2];
+    for (int c = 0; c < 2; ++c)
+      for (int b = 0; b < 2; ++b)
+        for (int a = 0; a < 2; ++a) {
+          const int zb = std::min(bz[0] + c, f.brick_dims_.z - 1), yb = std::min(by[0] + b, f.brick_dims_.y - 1),
+                    xb = std::min(bx[0] + a, f.brick_dims_.x - 1);
+          const size_t brick = (size_t(zb) * size_t(f.brick_dims_.y) + size_t(yb)) * size_t(f.brick_dims_.x) + size_t(xb);
+          const int32_t slot = f.slot_[brick];
+          data[c][b][a] = slot < 0 ? nullptr : f.data_.data() + size_t(slot) * kBrickVoxels;
+          constant[c][b][a] = f.constant_[brick];
+        }
     double v = 0;
     glm::dvec3 g(0.0);
     for (int c = 0; c < 4; ++c)
       for (int b = 0; b < 4; ++b) {
-        const size_t brick_row = (size_t(bz[c]) * size_t(f.brick_dims_.y) + size_t(by[b])) * size_t(f.brick_dims_.x);
         const int offset_row = (oz[c] * kBrick + oy[b]) * kBrick;
         double row = 0, row_dx = 0;
         for (int a = 0; a < 4; ++a) {
-          const size_t brick = brick_row + size_t(bx[a]);
-          const int32_t slot = f.slot_[brick];
-          const double s = slot < 0 ? f.constant_[brick] : f.data_[size_t(slot) * kBrickVoxels + size_t(offset_row + ox[a])];
+          const float* d = data[sz[c]][sy[b]][sx[a]];
+          const double s = d ? d[offset_row + ox[a]] : constant[sz[c]][sy[b]][sx[a]];
           row += wx[a] * s;
           row_dx += dx[a] * s;
         }
