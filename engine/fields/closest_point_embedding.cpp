@@ -217,9 +217,7 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
     if (sum.empty()) continue;
     std::vector<glm::dvec3> reps(sum.size());
     for (size_t r = 0; r < reps.size(); ++r) reps[r] = sum[r] / double(count[r]);
-    // Neighbours within `reach` through buckets of that size.
-    std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
-    for (size_t r = 0; r < reps.size(); ++r) buckets[key_of(reps[r], reach)].push_back(uint32_t(r));
+    const PointBuckets buckets(reps.size(), [&](size_t r) { return reps[r]; }, reach);
     std::vector<glm::dvec3> quads;  // this curve's ends
     for (const auto& qp : E.quadruple_points) {
       const auto& qm = E.features[qp.feature].materials;
@@ -233,15 +231,9 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
       std::vector<uint32_t> near;
       for (size_t r = range.begin(); r < range.end(); ++r) {
         near.clear();
-        const glm::ivec3 b = glm::ivec3(glm::floor(reps[r] / reach));
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const auto it = buckets.find(key_of((glm::dvec3(b + glm::ivec3(dx, dy, dz)) + 0.5) * reach, reach));
-              if (it == buckets.end()) continue;
-              for (uint32_t j : it->second)
-                if (glm::length(reps[j] - reps[r]) < reach) near.push_back(j);
-            }
+        buckets.for_each_candidate(reps[r], [&](uint32_t j) {
+          if (glm::length(reps[j] - reps[r]) < reach) near.push_back(j);
+        });
         double to_quad = std::numeric_limits<double>::infinity();
         for (const auto& q : quads) to_quad = std::min(to_quad, glm::length(q - reps[r]));
         const double t = std::clamp(to_quad / (2.0 * sigma), 0.0, 1.0);
@@ -553,32 +545,22 @@ size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
   // The displacement at each such voxel: the kernel-weighted mean move of the curve points within kReach, times a
   // fade from 1 within kFull of the nearest curve point (any curve's, moved or not) to 0 at kReach.
   std::vector<glm::dvec3> shift(voxels.size(), glm::dvec3(0.0));
-  // Every curve point, in buckets kReach voxels wide: the 27 around a voxel's hold all points within kReach of it.
-  const double bucket = kReach * h;
-  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
-  for (uint32_t r = 0; r < moves.size(); ++r)
-    buckets[cell_key(glm::ivec3(glm::floor(moves[r].position / bucket)))].push_back(r);
+  // Every curve point, in buckets kReach voxels wide.
+  const PointBuckets buckets(moves.size(), [&](size_t r) { return moves[r].position; }, kReach * h);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, voxels.size()), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t n = range.begin(); n < range.end(); ++n) {
       const glm::ivec3 v = grid.voxel(voxels[n]);
       const glm::dvec3 x = grid.local(glm::dvec3(v));
-      const glm::ivec3 home = glm::ivec3(glm::floor(x / bucket));
       glm::dvec3 sum(0.0);
       double weight = 0, nearest = std::numeric_limits<double>::infinity();
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const auto it = buckets.find(cell_key(home + glm::ivec3(dx, dy, dz)));
-            if (it == buckets.end()) continue;
-            for (uint32_t r : it->second) {
-              const double d = glm::length(moves[r].position - x) / h;
-              if (d >= kReach) continue;
-              nearest = std::min(nearest, d);
-              const double w = std::exp(-0.5 * d * d / (kKernel * kKernel));
-              sum += w * moves[r].move;
-              weight += w;
-            }
-          }
+      buckets.for_each_candidate(x, [&](uint32_t r) {
+        const double d = glm::length(moves[r].position - x) / h;
+        if (d >= kReach) return;
+        nearest = std::min(nearest, d);
+        const double w = std::exp(-0.5 * d * d / (kKernel * kKernel));
+        sum += w * moves[r].move;
+        weight += w;
+      });
       if (weight <= 0) continue;
       const double t = std::clamp((kReach - nearest) / (kReach - kFull), 0.0, 1.0);
       shift[n] = sum / weight * (t * t * (3 - 2 * t));

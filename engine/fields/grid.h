@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -19,6 +21,35 @@ inline uint64_t cell_key(const glm::ivec3& c) {
   return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) |
          uint64_t(uint32_t(c.z) & 0x1fffff);
 }
+
+// Points in hashed cubic buckets of one width: every point within that width of x lies in the 27 buckets around x's,
+// so a neighbour query costs 27 lookups however far the points spread.
+class PointBuckets {
+ public:
+  PointBuckets() = default;
+  // position_of(i) for i in [0, count) gives point i.
+  template <class PositionOf>
+  PointBuckets(size_t count, PositionOf&& position_of, double width) : width_(width) {
+    for (size_t i = 0; i < count; ++i) buckets_[key(position_of(i))].push_back(uint32_t(i));
+  }
+  // Calls visit(i) for every point i in the 27 buckets around x: a superset of the points within width of x.
+  template <class Visit>
+  void for_each_candidate(const glm::dvec3& x, Visit&& visit) const {
+    const glm::ivec3 home(glm::floor(x / width_));
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = buckets_.find(cell_key(home + glm::ivec3(dx, dy, dz)));
+          if (it == buckets_.end()) continue;
+          for (uint32_t i : it->second) visit(i);
+        }
+  }
+
+ private:
+  uint64_t key(const glm::dvec3& x) const { return cell_key(glm::ivec3(glm::floor(x / width_))); }
+  double width_ = 1.0;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> buckets_;
+};
 
 struct Grid {
   glm::ivec3 dims{0};
