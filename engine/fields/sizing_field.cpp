@@ -57,50 +57,30 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
   return none;
 }
 
-// Largest principal curvature of a surface through p with normal n, by a least-squares fit of the height function
-// z = a x^2 + b xy + c y^2 + d x + e y to nearby surface points in the tangent frame. Fitting over a few voxels
-// measures the shape at the scale of the sizing field, not the staircase residue a voxel wide.
-glm::dmat3 fitted_shape(const glm::dvec3& p, const glm::dvec3& n, const std::vector<glm::dvec3>& points) {
+// The shape operator (second fundamental form) at p, with unit normal n, from how the normals turn: the least-squares
+// symmetric 2x2 S in the tangent frame (t1, t2) with (n_q - n_p) . t_i = -S_ij (q - p) . t_j over the neighbours q,
+// returned as a 3x3 tensor so that neighbours' forms can be averaged. A sphere's or a cylinder's normals are exactly
+// linear in position, so a wide window adds no bias; a fit of heights over the tangent plane (a quadric) would
+// overestimate the curvature by the r^4 term it cannot follow, 6% on a window of 0.4 R.
+glm::dmat3 fitted_shape(const glm::dvec3& p, const glm::dvec3& n, const std::vector<glm::dvec3>& points,
+                        const std::vector<glm::dvec3>& normals) {
   const glm::dvec3 helper = std::fabs(n.x) < 0.7 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
   const glm::dvec3 t1 = glm::normalize(glm::cross(n, helper)), t2 = glm::cross(n, t1);
-  double A[5][5] = {}, rhs[5] = {};
-  int used = 0;
-  for (const auto& q : points) {
-    const glm::dvec3 d = q - p;
-    const double x = glm::dot(d, t1), y = glm::dot(d, t2), z = glm::dot(d, n);
-    const double row[5] = {x * x, x * y, y * y, x, y};
-    for (int r = 0; r < 5; ++r) {
-      for (int c = 0; c < 5; ++c) A[r][c] += row[r] * row[c];
-      rhs[r] += row[r] * z;
-    }
-    ++used;
+  // Unknowns (s11, s12, s22); each neighbour gives two equations, -dn.t1 = s11 x + s12 y and -dn.t2 = s12 x + s22 y.
+  glm::dmat3 A(0.0);
+  glm::dvec3 rhs(0.0);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const glm::dvec3 d = points[i] - p, dn = normals[i] - n;
+    const double x = glm::dot(d, t1), y = glm::dot(d, t2);
+    const double n1 = -glm::dot(dn, t1), n2 = -glm::dot(dn, t2);
+    const glm::dvec3 r1(x, y, 0), r2(0, x, y);
+    A += glm::outerProduct(r1, r1) + glm::outerProduct(r2, r2);
+    rhs += r1 * n1 + r2 * n2;
   }
-  if (used < 8) return glm::dmat3(0.0);
-  // Gaussian elimination with partial pivoting on the 5x5 normal equations.
-  for (int c = 0; c < 5; ++c) {
-    int piv = c;
-    for (int r = c + 1; r < 5; ++r)
-      if (std::fabs(A[r][c]) > std::fabs(A[piv][c])) piv = r;
-    if (std::fabs(A[piv][c]) < 1e-12) return glm::dmat3(0.0);
-    std::swap(A[c], A[piv]);
-    std::swap(rhs[c], rhs[piv]);
-    for (int r = c + 1; r < 5; ++r) {
-      const double f = A[r][c] / A[c][c];
-      for (int k = c; k < 5; ++k) A[r][k] -= f * A[c][k];
-      rhs[r] -= f * rhs[c];
-    }
-  }
-  double sol[5];
-  for (int r = 4; r >= 0; --r) {
-    double v = rhs[r];
-    for (int k = r + 1; k < 5; ++k) v -= A[r][k] * sol[k];
-    sol[r] = v / A[r][r];
-  }
-  // Second fundamental form [[2a, b], [b, 2c]] in the tangent frame (the linear terms absorb a tilt of the normal),
-  // as a 3x3 tensor so that neighbours' forms can be averaged.
-  const double a = 2 * sol[0], b = sol[1], c = 2 * sol[2];
-  return a * glm::outerProduct(t1, t1) + b * (glm::outerProduct(t1, t2) + glm::outerProduct(t2, t1)) +
-         c * glm::outerProduct(t2, t2);
+  if (points.size() < 6 || std::fabs(glm::determinant(A)) < 1e-12) return glm::dmat3(0.0);
+  const glm::dvec3 sol = glm::inverse(A) * rhs;
+  return sol.x * glm::outerProduct(t1, t1) + sol.y * (glm::outerProduct(t1, t2) + glm::outerProduct(t2, t1)) +
+         sol.z * glm::outerProduct(t2, t2);
 }
 
 // Largest |eigenvalue| of a shape tensor (its third eigenvalue, along the normal, is about zero).
@@ -113,7 +93,13 @@ double max_curvature(const glm::dmat3& S) {
   return std::max(std::fabs(0.5 * (tr + disc)), std::fabs(0.5 * (tr - disc)));
 }
 
-constexpr int kFitCells = 3;
+// The curvature is measured at the scale of the spacing it sets: first within kFitCells cells, then again within
+// kFitScale times the radius of curvature that gave, between kFitCells and kMaxFitCells cells. A window much smaller
+// than the spacing sees the staircase residue of the voxels (a voxelised sphere's flat caps and their rims, several
+// voxels wide), not the shape the particles must follow. Only neighbours whose normals are within 60 degrees of the
+// block's own take part, which also keeps a small part's far side out of a wide window.
+constexpr double kFitCells = 3.0, kMaxFitCells = 8.0, kFitScale = 0.4;
+constexpr int kAveragingPasses = 3;
 
 }  // namespace
 
@@ -129,38 +115,25 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   for (size_t slot = 0; slot < E.keys.size(); ++slot)
     if (E.keys[slot] != ClosestPointEmbedding::kEmpty) block_key[E.blocks[slot]] = E.keys[slot];
 
-  // 1. Per interface block: the largest principal curvature, fitted to the closest points of the same interface's
-  //    blocks within two cells, and the half thicknesses of its two materials along the normal (distance to a thin part's medial surface).
-  std::vector<glm::dmat3> shape(blocks, glm::dmat3(0.0));
+  // 1. Per interface block whose cell touches its surface: the closest point, the unit normal, and the half
+  //    thicknesses of its two materials along the normal (distance to a thin part's medial surface).
+  std::vector<glm::dvec3> position(blocks), normal(blocks, glm::dvec3(0.0));
   std::vector<double> ridge(blocks, 1e300);
   std::vector<uint8_t> is_interface(blocks, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
-    std::vector<glm::dvec3> points;
     for (size_t b = r.begin(); b < r.end(); ++b) {
       const uint32_t fid = uint32_t(block_key[b] & 0xffff);
       const Feature& feature = E.features[fid];
       if (feature.kind != FeatureKind::interface) continue;
-      // Only blocks whose cell touches the surface measure it.
       if (!E.touches_feature(size_t(block_key[b] >> 16), b)) continue;
       const glm::dvec3 p(glm::vec3(E.fine[b * size_t(per_block)]));
       is_interface[b] = 1;
+      position[b] = p;
       const BrickField& fa = F.fields[feature.materials[0]];
       const BrickField& fb = F.fields[feature.materials[1]];
       const glm::dvec3 g = gradient(fa, p) - gradient(fb, p);
       if (glm::length(g) < 1e-12) continue;
-      points.clear();
-      const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
-      for (int dz = -kFitCells; dz <= kFitCells; ++dz)
-        for (int dy = -kFitCells; dy <= kFitCells; ++dy)
-          for (int dx = -kFitCells; dx <= kFitCells; ++dx) {
-            const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
-            if (!grid.inside(w.x, w.y, w.z)) continue;
-            const size_t cell = grid.index(w.x, w.y, w.z);
-            const int64_t nb = E.find_block(cell, fid);
-            if (nb >= 0 && E.touches_feature(cell, size_t(nb)))
-              points.emplace_back(glm::vec3(E.fine[size_t(nb) * size_t(per_block)]));
-          }
-      shape[b] = fitted_shape(p, glm::normalize(g), points);
+      normal[b] = glm::normalize(g);
       const double step = 0.25 * grid.min_spacing();
       const bool offsets = !F.junction_offsets.empty();
       ridge[b] = std::min(half_thickness(fa, offsets ? &F.junction_offsets[feature.materials[0]] : nullptr, p, F.band, step),
@@ -168,33 +141,71 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     }
   });
 
-  // The fitted forms still carry noise, and grading spreads every low outlier of h: average the (signed) forms over
-  //    the 3x3x3 neighbouring blocks of the same interface before taking the largest principal curvature; averaging
-  //    |k| instead would bias h low.
-  for (int pass = 0; pass < 3; ++pass) {
-    std::vector<glm::dmat3> averaged(blocks, glm::dmat3(0.0));
+  // Each interface's surface points, in buckets as wide as the widest fit.
+  const double cell_size = grid.min_spacing();
+  std::vector<std::vector<uint32_t>> members(E.features.size());
+  for (size_t b = 0; b < blocks; ++b)
+    if (is_interface[b]) members[block_key[b] & 0xffff].push_back(uint32_t(b));
+  std::vector<PointBuckets> buckets(E.features.size());
+  tbb::parallel_for(size_t(0), E.features.size(), [&](size_t fid) {
+    const auto& m = members[fid];
+    if (!m.empty()) buckets[fid] = PointBuckets(m.size(), [&](size_t i) { return position[m[i]]; }, kMaxFitCells * cell_size);
+  });
+
+  // The second fundamental form at each interface block, fitted to the points of its interface within `window`
+  // whose normals agree with its own (the far side of a thin part is no part of this patch), then averaged over the
+  // 3x3x3 neighbouring blocks of the same interface kAveragingPasses times: the forms still carry noise, and grading
+  // spreads every low outlier of h. The signed forms are averaged; averaging |k| would bias h low.
+  std::vector<glm::dmat3> shape(blocks, glm::dmat3(0.0));
+  auto fit_shapes = [&](auto&& window_of) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<glm::dvec3> points, normals;
       for (size_t b = r.begin(); b < r.end(); ++b) {
-        if (!is_interface[b]) continue;
-        const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
-        const uint32_t fid = uint32_t(block_key[b] & 0xffff);
-        glm::dmat3 sum(0.0);
-        int n = 0;
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
-              if (!grid.inside(w.x, w.y, w.z)) continue;
-              const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
-              if (nb < 0 || !is_interface[size_t(nb)]) continue;
-              sum += shape[size_t(nb)];
-              ++n;
-            }
-        averaged[b] = sum / double(n);
+        if (!is_interface[b] || normal[b] == glm::dvec3(0.0)) continue;
+        const auto& m = members[block_key[b] & 0xffff];
+        const double window = window_of(b);
+        points.clear();
+        normals.clear();
+        buckets[block_key[b] & 0xffff].for_each_candidate(position[b], [&](uint32_t i) {
+          const size_t q = m[i];
+          if (glm::length(position[q] - position[b]) <= window && glm::dot(normal[q], normal[b]) > 0.5)
+            points.push_back(position[q]), normals.push_back(normal[q]);
+        });
+        shape[b] = fitted_shape(position[b], normal[b], points, normals);
       }
     });
-    shape.swap(averaged);
+    for (int pass = 0; pass < kAveragingPasses; ++pass) {
+      std::vector<glm::dmat3> averaged(blocks, glm::dmat3(0.0));
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t b = r.begin(); b < r.end(); ++b) {
+          if (!is_interface[b]) continue;
+          const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
+          const uint32_t fid = uint32_t(block_key[b] & 0xffff);
+          glm::dmat3 sum(0.0);
+          int n = 0;
+          for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dx = -1; dx <= 1; ++dx) {
+                const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
+                if (!grid.inside(w.x, w.y, w.z)) continue;
+                const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
+                if (nb < 0 || !is_interface[size_t(nb)]) continue;
+                sum += shape[size_t(nb)];
+                ++n;
+              }
+          averaged[b] = sum / double(n);
+        }
+      });
+      shape.swap(averaged);
+    }
+  };
+  fit_shapes([&](size_t) { return kFitCells * cell_size; });
+  std::vector<double> window(blocks, 0.0);
+  for (size_t b = 0; b < blocks; ++b) {
+    const double k = max_curvature(shape[b]);
+    window[b] = std::clamp(k > 1e-12 ? kFitScale / k : 1e300, kFitCells * cell_size, kMaxFitCells * cell_size);
   }
+  fit_shapes([&](size_t b) { return window[b]; });
 
   // 2. Raw h per voxel cell: the smallest over the interface blocks in it. Junction features take the h of the
   //    interfaces around them through the cells they share.

@@ -173,11 +173,19 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball, graded sizing: the settled density fo
 
   // Density in bins of h: particles per unit area x h^2, from each interface particle's mean distance s to its three
   // nearest neighbours (a hexagonal packing at spacing s has 1 / (sqrt(3)/2 s^2) particles per unit area), with h
-  // averaged over the same four particles.
+  // averaged over the same four particles. Only particles at least their h from every curve and quadruple point
+  // particle: next to a junction the neighbours include the junction's own particles, which are no part of the
+  // interface's packing (that crowding put the lowest bin 22% over the mean, while the bins away from junctions agree
+  // within 5%).
   const auto& P = r.population.particles;
+  auto is_interface = [&](size_t i) { return E.features[r.population.features[i]].kind == fields::FeatureKind::interface; };
   std::vector<std::pair<double, double>> h_and_density;  // (h, density x h^2)
   for (size_t i = 0; i < P.size(); ++i) {
-    if (E.features[r.population.features[i]].kind != fields::FeatureKind::interface) continue;
+    if (!is_interface(i)) continue;
+    bool near_junction = false;
+    for (size_t j = 0; j < P.size() && !near_junction; ++j)
+      near_junction = !is_interface(j) && glm::length(glm::vec3(P[i]) - glm::vec3(P[j])) < P[i].w;
+    if (near_junction) continue;
     std::vector<std::pair<double, size_t>> d;
     for (size_t j = 0; j < P.size(); ++j)
       if (j != i) d.push_back({glm::length(glm::vec3(P[i]) - glm::vec3(P[j])), j});
@@ -199,6 +207,6 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball, graded sizing: the settled density fo
     const double mean = sum / double(per);
     MESSAGE("h " << h_and_density[b * per].first << " .. " << h_and_density[(b + 1) * per - 1].first
                  << ": density x h^2 = " << mean << " (all: " << overall << ")");
-    CHECK(std::fabs(mean / overall - 1.0) < 0.2);
+    CHECK(std::fabs(mean / overall - 1.0) < 0.12);
   }
 }
