@@ -13,6 +13,8 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "fields/curve_fit.h"
+
 namespace cpmesh::fields {
 
 namespace {
@@ -133,63 +135,13 @@ FeatureKind kind_of(size_t count) {
   return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
 }
 
-// Weighted local quadratic fit of a curve through points[i] (all `points`: the curve's representatives): the moved
-// position, or points[i] itself when the neighbourhood is not one smooth curve (see the header).
+// The curve smoothing's move of points[i] (all `points`: the curve's representatives): to the local quadratic fit,
+// or none when the neighbourhood is not one smooth curve (see the header).
 glm::dvec3 fit_curve_point(const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near, size_t i,
                            double sigma, double h) {
-  const glm::dvec3 p = points[i];
-  double W = 0;
-  glm::dvec3 c(0.0);
-  for (uint32_t j : near) {
-    const glm::dvec3 d = points[j] - p;
-    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
-    W += w;
-    c += w * points[j];
-  }
-  c /= W;
-  glm::dmat3 C(0.0);
-  for (uint32_t j : near) {
-    const glm::dvec3 d = points[j] - p;
-    const glm::dvec3 e = points[j] - c;
-    C += std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma)) * glm::outerProduct(e, e);
-  }
-  // Tangent: the principal axis (power iteration from the axis of the largest diagonal entry).
-  glm::dvec3 t(0.0);
-  t[C[0][0] >= C[1][1] && C[0][0] >= C[2][2] ? 0 : (C[1][1] >= C[2][2] ? 1 : 2)] = 1.0;
-  for (int it = 0; it < 40; ++it) {
-    const glm::dvec3 n = C * t;
-    if (glm::length(n) < 1e-30) return p;
-    t = glm::normalize(n);
-  }
-  const glm::dvec3 u = glm::normalize(glm::cross(t, std::fabs(t.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
-  const glm::dvec3 v = glm::cross(t, u);
-  // Both normal coordinates as a + b s + c s^2 in the arc parameter s / sigma, by weighted least squares.
-  glm::dmat3 A(0.0);
-  glm::dvec3 ru(0.0), rv(0.0);
-  for (uint32_t j : near) {
-    const glm::dvec3 d = points[j] - p;
-    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
-    const double s = glm::dot(d, t) / sigma;
-    const glm::dvec3 phi(1.0, s, s * s);
-    A += w * glm::outerProduct(phi, phi);
-    ru += w * glm::dot(d, u) * phi;
-    rv += w * glm::dot(d, v) * phi;
-  }
-  if (std::fabs(glm::determinant(A)) < 1e-9 * W * W * W) return p;  // all points at one spot: no curve to fit
-  const glm::dmat3 Ai = glm::inverse(A);
-  const glm::dvec3 cu = Ai * ru, cv = Ai * rv;
-  double residual = 0;
-  for (uint32_t j : near) {
-    const glm::dvec3 d = points[j] - p;
-    const double w = std::exp(-0.5 * glm::dot(d, d) / (sigma * sigma));
-    const double s = glm::dot(d, t) / sigma;
-    const glm::dvec3 phi(1.0, s, s * s);
-    const double eu = glm::dot(d, u) - glm::dot(cu, phi), ev = glm::dot(d, v) - glm::dot(cv, phi);
-    residual += w * (eu * eu + ev * ev);
-  }
-  const glm::dvec3 move = u * cu.x + v * cv.x;
-  if (std::sqrt(residual / W) > 0.25 * h || glm::length(move) > 0.5 * h) return p;
-  return p + move;
+  const LocalCurve fit = fit_local_curve(points, near, i, sigma);
+  if (!fit.valid || fit.rms > 0.25 * h || glm::length(fit.offset) > 0.5 * h) return points[i];
+  return points[i] + fit.offset;
 }
 
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose

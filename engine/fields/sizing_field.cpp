@@ -8,6 +8,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include "fields/curve_fit.h"
+
 namespace cpmesh::fields {
 
 namespace {
@@ -100,6 +102,9 @@ double max_curvature(const glm::dmat3& S) {
 // block's own take part, which also keeps a small part's far side out of a wide window.
 constexpr double kFitCells = 3.0, kMaxFitCells = 8.0, kFitScale = 0.4;
 constexpr int kAveragingPasses = 3;
+// A triple curve's curvature: Gaussian weights of this width (cells) along it; a fit whose points stray further than
+// kCurveMaxRms cells (rms) from it is not one smooth curve and sets nothing.
+constexpr double kCurveSigmaCells = 2.0, kCurveMaxRms = 0.25;
 
 }  // namespace
 
@@ -207,8 +212,37 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   }
   fit_shapes([&](size_t b) { return window[b]; });
 
-  // 2. Raw h per voxel cell: the smallest over the interface blocks in it. Junction features take the h of the
-  //    interfaces around them through the cells they share.
+  // The triple curves' own curvature at each curve block whose cell touches its curve, from a local quadratic fit of
+  // the curve's points (curve_fit.h). A curve can bend more tightly than either of its surfaces: a plane that cuts a
+  // ball off its centre meets it in a circle smaller than the ball, and a chord of that circle strays from it by
+  // length^2 / (8 radius).
+  std::vector<double> curve_radius(blocks, 1e300);
+  std::vector<std::vector<uint32_t>> curve_members(E.features.size());
+  for (size_t b = 0; b < blocks; ++b)
+    if (E.features[block_key[b] & 0xffff].kind == FeatureKind::triple_curve && E.touches_feature(block_key[b] >> 16, b))
+      curve_members[block_key[b] & 0xffff].push_back(uint32_t(b));
+  const double sigma = kCurveSigmaCells * cell_size;
+  for (const auto& m : curve_members) {
+    if (m.empty()) continue;
+    std::vector<glm::dvec3> points(m.size());
+    for (size_t i = 0; i < m.size(); ++i) points[i] = glm::dvec3(glm::vec3(E.fine[m[i] * size_t(per_block)]));
+    const PointBuckets near_points(points.size(), [&](size_t i) { return points[i]; }, 3.0 * sigma);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.size()), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<uint32_t> near;
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        near.clear();
+        near_points.for_each_candidate(points[i], [&](uint32_t j) {
+          if (glm::length(points[j] - points[i]) < 3.0 * sigma) near.push_back(j);
+        });
+        const LocalCurve fit = fit_local_curve(points, near, i, sigma);
+        if (fit.valid && fit.rms <= kCurveMaxRms * cell_size && fit.curvature > 1e-12)
+          curve_radius[m[i]] = 1.0 / fit.curvature;
+      }
+    });
+  }
+
+  // 2. Raw h per voxel cell: the smallest over the interface blocks in it and the triple curves' curvature there.
+  //    Junction features take the h of the interfaces around them through the cells they share.
   std::vector<uint64_t> cells(blocks);
   for (size_t b = 0; b < blocks; ++b) cells[b] = block_key[b] >> 16;
   std::sort(cells.begin(), cells.end());
@@ -235,6 +269,13 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     else
       ++stats.thickness_limited;
     double& cell_h = hc[size_t(cell_slot(block_key[b] >> 16))];
+    cell_h = std::min(cell_h, std::clamp(h, h_min, h_max));
+  }
+  for (size_t b = 0; b < blocks; ++b) {
+    if (curve_radius[b] >= 1e300) continue;
+    const double h = options.density * curve_radius[b];
+    double& cell_h = hc[size_t(cell_slot(block_key[b] >> 16))];
+    if (h < cell_h) ++stats.curve_limited;
     cell_h = std::min(cell_h, std::clamp(h, h_min, h_max));
   }
 

@@ -1,6 +1,7 @@
 // Sizing field on analytic volumes: curvature-limited on a sphere, thickness-limited on a thin slab, graded.
 #include <doctest/doctest.h>
 
+#include "fields/curve_fit.h"
 #include "fields/sizing_field.h"
 #include "fields_volumes.h"
 
@@ -53,5 +54,73 @@ TEST_CASE("a thin slab limits h by its thickness, and h is graded away from it")
     const auto& q = E.fine[a + 1];
     const double d = glm::length(glm::vec3(p) - glm::vec3(q));
     CHECK(std::fabs(p.w - q.w) <= opt.grading * d + 0.3);
+  }
+}
+
+TEST_CASE("fit_local_curve: a circle's curvature and a line's") {
+  for (const double radius : {4.0, 6.0, 12.0}) {
+    CAPTURE(radius);
+    std::vector<glm::dvec3> points;
+    for (int k = 0; k < 64; ++k) {
+      const double a = 2 * M_PI * k / 64;
+      points.emplace_back(radius * std::cos(a), radius * std::sin(a), 0.1 * radius);
+    }
+    std::vector<uint32_t> near;
+    for (uint32_t j = 0; j < points.size(); ++j)
+      if (glm::length(points[j] - points[0]) < 6.0) near.push_back(j);
+    const LocalCurve fit = fit_local_curve(points, near, 0, 2.0);
+    REQUIRE(fit.valid);
+    // Within 10% where the window (3 sigma = 6) spans under a radian each way; on a tighter circle the quadratic
+    // reads it tighter still (1.42x at radius 4), never looser, so h errs towards more particles.
+    if (radius >= 6.0)
+      CHECK(fit.curvature * radius == doctest::Approx(1.0).epsilon(0.1));
+    else
+      CHECK((fit.curvature * radius > 1.0 && fit.curvature * radius < 1.5));
+    CHECK(glm::length(fit.offset) < 0.05 * radius);
+  }
+  std::vector<glm::dvec3> line;
+  for (int k = -6; k <= 6; ++k) line.emplace_back(0.5 * k, 0.3 * k, -0.2 * k);
+  std::vector<uint32_t> all(line.size());
+  for (uint32_t j = 0; j < all.size(); ++j) all[j] = j;
+  const LocalCurve straight = fit_local_curve(line, all, 6, 2.0);
+  REQUIRE(straight.valid);
+  CHECK(straight.curvature < 1e-9);
+  CHECK(straight.rms < 1e-9);
+}
+
+TEST_CASE("wedge ball: a triple curve's own curvature bounds h along it") {
+  // The inner ball's curves are circles smaller than the ball (the wedge planes miss its centre); a spacing set by
+  // the ball alone put chords 0.5 voxel off them at 48^3.
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
+  const auto F = build_indicator_fields(wb.grid, wb.labels.data());
+  auto E = build_closest_point_embedding(F);
+  const auto stats = compute_sizing_field(F, E, SizingOptions{});
+  CHECK(stats.curve_limited > 0);
+  // Each analytic curve's radius: the circumradius of its first, middle and last points (all curves here are arcs
+  // of circles or straight segments).
+  for (const auto& curve : wb.junctions.triple_curves) {
+    const auto& pts = curve.points;
+    const glm::dvec3 a(pts.front()[0], pts.front()[1], pts.front()[2]);
+    const glm::dvec3 b(pts[pts.size() / 2][0], pts[pts.size() / 2][1], pts[pts.size() / 2][2]);
+    const glm::dvec3 c(pts.back()[0], pts.back()[1], pts.back()[2]);
+    const double area2 = glm::length(glm::cross(b - a, c - a));
+    if (area2 < 1e-6) continue;  // straight
+    const double radius = glm::length(b - a) * glm::length(c - b) * glm::length(a - c) / (2.0 * area2);
+    const int fid = E.feature_index(FeatureKind::triple_curve, {curve.materials[0], curve.materials[1], curve.materials[2], 0xffff});
+    REQUIRE(fid >= 0);
+    // h at the curve's points away from its ends (quadruple points take the h of everything around them).
+    std::vector<double> h;
+    for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+      if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != fid) continue;
+      const size_t b = E.blocks[slot];
+      const glm::dvec3 p(glm::vec3(E.fine[b * 8]));
+      const double to_end = std::min(glm::length(p - (a - wb.grid.origin)), glm::length(p - (c - wb.grid.origin)));
+      if (to_end > 4.0) h.push_back(E.fine[b * 8].w);
+    }
+    REQUIRE(!h.empty());
+    std::sort(h.begin(), h.end());
+    MESSAGE("curve " << curve.materials[0] << curve.materials[1] << curve.materials[2] << ": radius " << radius
+                     << ", h median " << h[h.size() / 2] << ", max " << h.back());
+    CHECK(h[h.size() / 2] <= 0.5 * radius * 1.1);
   }
 }
