@@ -31,7 +31,9 @@ void sample_feature_fields(const IndicatorFields& F, const int* m, int count, co
 }
 
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
-bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol) {
+// On success, grad_out (optional, k + 1 entries) receives the gradients at the last sample, within tol of x.
+bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol,
+            glm::dvec3* grad_out = nullptr) {
   const double max_step = F.grid.min_spacing();
   for (int it = 0; it < iterations; ++it) {
     double f[4];
@@ -64,7 +66,10 @@ bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int it
     const double len = glm::length(step);
     if (len > max_step) step *= max_step / len;
     x -= step;
-    if (gmax < tol && len < tol) return true;
+    if (gmax < tol && len < tol) {
+      if (grad_out) std::copy(grad, grad + k + 1, grad_out);
+      return true;
+    }
   }
   return false;
 }
@@ -261,28 +266,44 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
   const int count = materials_of(feature, m);
   const int k = count - 1;
   const double tol = 1e-5 * F.grid.min_spacing();
-  glm::dvec3 x = start ? *start : x0;
-  bool ok = newton(F, m, k, x, newton_iterations, tol);
-  for (int round = 1; ok && k < 3 && round < rounds; ++round) {
-    // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
-    // rather than the end of the gradient path; every round ends with a converged Newton solve.
-    double f[4];
-    glm::dvec3 g[4];
-    sample_feature_fields(F, m, count, x, f, g);
+  // The foot of x0 on the tangent space at x (on the feature), from the fields' gradients there (index units).
+  auto foot = [&](const glm::dvec3& x, glm::dvec3* g) {
     for (int a = 0; a < count; ++a) g[a] /= F.grid.spacing;
     const glm::dvec3 d = x0 - x;
-    glm::dvec3 next;
     if (k == 1) {
       const glm::dvec3 n = glm::normalize(g[0] - g[1]);
-      next = x + d - n * glm::dot(d, n);
-    } else {
-      const glm::dvec3 t = glm::normalize(glm::cross(g[0] - g[1], g[0] - g[2]));
-      next = x + t * glm::dot(d, t);
+      return x + d - n * glm::dot(d, n);
     }
+    const glm::dvec3 t = glm::normalize(glm::cross(g[0] - g[1], g[0] - g[2]));
+    return x + t * glm::dot(d, t);
+  };
+  glm::dvec3 g[4];
+  glm::dvec3 x = x0;
+  if (start) {
+    // A start on the feature (a neighbour's closest point): begin at the foot of x0 on its tangent space, which is
+    // within the curvature's reach of the answer, so Newton and the rounds below have little left to do.
+    x = *start;
+    if (k < 3) {
+      double f[4];
+      sample_feature_fields(F, m, count, x, f, g);
+      const glm::dvec3 next = foot(x, g);
+      if (std::isfinite(next.x + next.y + next.z)) x = next;
+    }
+  }
+  bool ok = newton(F, m, k, x, newton_iterations, tol, g);
+  if (!ok && start) {  // the foot led Newton astray (a field's edge, another sheet): from the start itself
+    x = *start;
+    ok = newton(F, m, k, x, newton_iterations, tol, g);
+  }
+  for (int round = 1; ok && k < 3 && round < rounds; ++round) {
+    // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
+    // rather than the end of the gradient path; every round ends with a converged Newton solve. Newton's last
+    // gradients are taken at x (within its tolerance).
+    const glm::dvec3 next = foot(x, g);
     // A foot point that moves less than a thousandth of a voxel is found: the embedding's accuracy is a hundredth.
     if (glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
-    if (!newton(F, m, k, y, newton_iterations, tol)) break;  // keep the last converged point
+    if (!newton(F, m, k, y, newton_iterations, tol, g)) break;  // keep the last converged point
     x = y;
   }
   out = x;
