@@ -70,9 +70,12 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
     max_level_ = uint32_t(std::clamp(int(std::ceil(std::log2(extent / (0.25 * double(h_min))))), 1, 21));
 }
 
-void ParticleSystem::record_walk(gpu::Sequence& seq) {
-  sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
-  build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
+void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
+  if (rebuild) {
+    sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
+    build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
+    steps_since_build_ = 0;
+  }
   moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_,
                   max_level_);
   walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
@@ -82,7 +85,7 @@ void ParticleSystem::record_walk(gpu::Sequence& seq) {
 
 std::vector<glm::vec4> ParticleSystem::energies() {
   gpu::Sequence seq(*ctx_);
-  record_walk(seq);
+  record_walk(seq, true);
   seq.submit_and_wait();
   return walk_result_.download();
 }
@@ -90,7 +93,8 @@ std::vector<glm::vec4> ParticleSystem::energies() {
 IterationStats ParticleSystem::step() {
   gpu::Sequence seq(*ctx_);
   seq.fill(lost_, 0).barrier();
-  record_walk(seq);
+  record_walk(seq, steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1));
+  ++steps_since_build_;
   const auto& e = embedding_;
   const struct {
     glm::ivec4 dims_sub;
@@ -117,7 +121,7 @@ ParticleSystem::PopulationCheck ParticleSystem::check_population(const std::vect
   gpu::Buffer<uint32_t> counters(*ctx_, 2 + 2 * ideals.size(), "population counters", gpu::MemoryUse::readback);
   gpu::Sequence seq(*ctx_);
   seq.fill(counters, 0).barrier();
-  record_walk(seq);
+  record_walk(seq, true);
   const struct {
     uint32_t n;
     float delete_factor, add_factor;

@@ -1,7 +1,8 @@
 #pragma once
 // The GPU particle system (seed paper Sec. 5; issue 6): per iteration, one submission that Morton-sorts the
-// particles, rebuilds the octree and its moments, walks it for every particle's energy and gradient, advects the
-// particles in their features' tangent spaces with closest point reprojection, and sums the energy on the GPU. The
+// particles and rebuilds the octree (every AdvectionOptions::rebuild_every iterations), refits its moments, walks it
+// for every particle's energy and gradient, advects the particles in their features' tangent spaces with closest
+// point reprojection, and sums the energy on the GPU. The
 // host reads back two numbers per iteration (total energy, particles that left their band) and applies the paper's
 // stop rule: (E_prev - E) / E_prev < delta.
 #include <vector>
@@ -22,6 +23,10 @@ struct AdvectionOptions {
   double delta = 0.0015;    // stop when the relative energy decrease falls below this (paper)
   int max_iterations = 500;
   int min_iterations = 0;   // the stop rule is not tested before this many iterations
+  // step() re-sorts the particles and rebuilds the octree's topology every this many iterations and only refits its
+  // moments (boxes, centres, counts) in between: the walk prunes by the refitted boxes, so it stays exact, and
+  // particles move at most max_move h per iteration, so the boxes loosen little. 1: rebuild every iteration.
+  int rebuild_every = 8;
 };
 
 struct IterationStats {
@@ -68,14 +73,15 @@ class ParticleSystem {
   std::vector<glm::vec4> walk_result() const { return walk_result_.download(); }  // (gradient, E), last walk
 
  private:
-  void record_walk(gpu::Sequence& seq);
+  void record_walk(gpu::Sequence& seq, bool rebuild);
   gpu::Context* ctx_;
   AdvectionOptions options_;
   float alpha_;
   uint32_t n_;
   fields::GpuEmbedding embedding_;
   octree::MortonBox box_;
-  uint32_t max_level_ = 21;  // octree depth: cells down to a quarter of the smallest h (octree_levels)
+  uint32_t max_level_ = 21;
+  int steps_since_build_ = -1;  // step() iterations since the octree topology was built (-1: never)  // octree depth: cells down to a quarter of the smallest h (octree_levels)
   octree::MortonSort sort_;
   octree::OctreeBuild build_;
   octree::OctreeMoments moments_;
