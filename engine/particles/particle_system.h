@@ -2,9 +2,8 @@
 // The GPU particle system (seed paper Sec. 5; issue 6): per iteration, one submission that Morton-sorts the
 // particles and rebuilds the octree (every AdvectionOptions::rebuild_every iterations), refits its moments, walks it
 // for every particle's energy and gradient, advects the particles in their features' tangent spaces with closest
-// point reprojection, and sums the energy on the GPU. The
-// host reads back two numbers per iteration (total energy, particles that left their band) and applies the paper's
-// stop rule: (E_prev - E) / E_prev < delta.
+// point reprojection, and sums the energy on the GPU. The host reads back two numbers per iteration (total energy,
+// particles that left their band) and applies the paper's stop rule: (E_prev - E) / E_prev < delta.
 #include <vector>
 
 #include "fields/cp_lookup_gpu.h"
