@@ -448,8 +448,16 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
             }
             break;
           }
-          project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
-                             level == 0 && warm_ok ? &warm : nullptr);
+          bool ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
+                                       level == 0 && warm_ok ? &warm : nullptr);
+          // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
+          // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
+          // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
+          for (int d = 0; !ok && d < 6; ++d) {
+            glm::dvec3 nudged = x0;
+            nudged[d / 2] += (d % 2 ? -1.0 : 1.0) * grid.spacing[d / 2] / 3.0;
+            ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged);
+          }
           int m[4];
           const int count = materials_of(feat, m);
           const double own = F.fields[size_t(m[0])].sample_cubic_local(cp);

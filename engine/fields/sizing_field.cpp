@@ -43,7 +43,11 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
   constexpr double none = 1e300;
   if (len < 1e-12) return none;
   const glm::dvec3 n = g / len;  // into the material
-  for (double t = step; t <= 2.0 * band; t += step) {
+  // Sphere tracing: the field is a smoothed distance (it changes by at most about one per unit length; kLipschitz
+  // leaves room for the interpolant's overshoot), so no exit lies within v / kLipschitz of a point of value v.
+  constexpr double kLipschitz = 1.5;
+  double t_prev = 0, v_prev = 0;
+  for (double t = step; t <= 2.0 * band;) {
     const double v = value(p + t * n, nullptr);
     if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
     if (v < 0) {
@@ -52,9 +56,13 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
       glm::dvec3 exit;
       value(p + t * n, &exit);
       const double exit_len = glm::length(exit);
-      if (exit_len > 1e-12 && glm::dot(exit / exit_len, n) < -0.5) return 0.5 * (t - 0.5 * step);
+      if (exit_len > 1e-12 && glm::dot(exit / exit_len, n) < -0.5)
+        return 0.5 * (t_prev + (t - t_prev) * v_prev / (v_prev - v));  // the crossing, linearly between samples
       return none;
     }
+    t_prev = t;
+    v_prev = v;
+    t += std::max(step, v / kLipschitz);
   }
   return none;
 }

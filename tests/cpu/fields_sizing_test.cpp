@@ -45,9 +45,17 @@ TEST_CASE("a thin slab limits h by its thickness, and h is graded away from it")
   opt.density = 1.0;
   opt.h_max = 4.0;
   const auto stats = compute_sizing_field(F, E, opt);
-  // The slab's medial plane is 1.5 voxels from each face: h about 1.5 on the faces.
+  // The slab's medial plane is 1.5 voxels from each face: h about 1.5 on the faces. The fine points on that plane
+  // are as far from one face as from the other; Newton stalls there (the gradient of f_1 - f_0 vanishes), and the
+  // points it left behind, mid-slab, once read as a layer a fraction of a voxel thick: h down to h_min (0.25) around
+  // them, mean 1.36.
+  MESSAGE("h: min " << stats.h_min << " mean " << stats.h_mean << " max " << stats.h_max);
   CHECK(stats.thickness_limited > 0);
-  CHECK(stats.h_mean == doctest::Approx(1.5).epsilon(0.25));
+  CHECK(stats.h_mean == doctest::Approx(1.5).epsilon(0.1));
+  CHECK(stats.h_min > 1.0);
+  // Every closest point on a face, away from the volume's sides (where the fields see the slab end).
+  for (const auto& p : E.fine)
+    if (std::min({p.x, p.y, 23.0f - p.x, 23.0f - p.y}) > 3.0f) CHECK(std::fabs(std::fabs(p.z - 11.0) - 1.5) < 0.25);
   // Grading: no two fine points closer than a voxel differ by more than the Lipschitz bound (plus rounding).
   for (size_t a = 0; a + 1 < E.fine.size(); a += 7) {
     const auto& p = E.fine[a];
