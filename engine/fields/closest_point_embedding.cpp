@@ -140,21 +140,11 @@ FeatureKind kind_of(size_t count) {
   return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
 }
 
-// The curve smoothing's move of points[i] (all `points`: the curve's representatives): to the local quadratic fit,
-// or none when the neighbourhood is not one smooth curve (see the header).
-glm::dvec3 fit_curve_point(const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near, size_t i,
-                           double sigma, double h) {
-  const LocalCurve fit = fit_local_curve(points, near, i, sigma);
-  if (!fit.valid || fit.rms > 0.25 * h || glm::length(fit.offset) > 0.5 * h) return points[i];
-  return points[i] + fit.offset;
-}
-
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
 // closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
 std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner, double sigma) {
   const double h = E.grid.min_spacing();
   const double cell = 0.25 * h;
-  const double reach = 3.0 * sigma;
   auto key_of = [](const glm::dvec3& x, double size) { return cell_key(glm::ivec3(glm::floor(x / size))); };
   std::vector<CurveMove> out;
   for (uint32_t fid = 0; fid < E.features.size(); ++fid) {
@@ -174,7 +164,7 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
     if (sum.empty()) continue;
     std::vector<glm::dvec3> reps(sum.size());
     for (size_t r = 0; r < reps.size(); ++r) reps[r] = sum[r] / double(count[r]);
-    const PointBuckets buckets(reps.size(), [&](size_t r) { return reps[r]; }, reach);
+    const std::vector<LocalCurve> fits = fit_local_curves(reps, sigma);
     std::vector<glm::dvec3> quads;  // this curve's ends
     for (const auto& qp : E.quadruple_points) {
       const auto& qm = E.features[qp.feature].materials;
@@ -184,19 +174,15 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
     }
     const size_t first = out.size();
     out.resize(first + reps.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, reps.size()), [&](const tbb::blocked_range<size_t>& range) {
-      std::vector<uint32_t> near;
-      for (size_t r = range.begin(); r < range.end(); ++r) {
-        near.clear();
-        buckets.for_each_candidate(reps[r], [&](uint32_t j) {
-          if (glm::length(reps[j] - reps[r]) < reach) near.push_back(j);
-        });
-        double to_quad = std::numeric_limits<double>::infinity();
-        for (const auto& q : quads) to_quad = std::min(to_quad, glm::length(q - reps[r]));
-        const double t = std::clamp(to_quad / (2.0 * sigma), 0.0, 1.0);
-        out[first + r] = {reps[r], (fit_curve_point(reps, near, r, sigma, h) - reps[r]) * (t * t * (3 - 2 * t))};
-      }
-    });
+    for (size_t r = 0; r < reps.size(); ++r) {
+      // To the local quadratic fit, or no move when the neighbourhood is not one smooth curve (see the header).
+      const LocalCurve& fit = fits[r];
+      const bool moves = fit.valid && fit.rms <= 0.25 * h && glm::length(fit.offset) <= 0.5 * h;
+      double to_quad = std::numeric_limits<double>::infinity();
+      for (const auto& q : quads) to_quad = std::min(to_quad, glm::length(q - reps[r]));
+      const double t = std::clamp(to_quad / (2.0 * sigma), 0.0, 1.0);
+      out[first + r] = {reps[r], moves ? fit.offset * (t * t * (3 - 2 * t)) : glm::dvec3(0.0)};
+    }
   }
   return out;
 }

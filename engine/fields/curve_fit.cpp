@@ -2,6 +2,11 @@
 
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "fields/grid.h"
+
 namespace cpmesh::fields {
 
 LocalCurve fit_local_curve(const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near, size_t i,
@@ -62,6 +67,23 @@ LocalCurve fit_local_curve(const std::vector<glm::dvec3>& points, const std::vec
   const glm::dvec3 d1(1.0, cu.y / sigma, cv.y / sigma), d2(0.0, 2 * cu.z / (sigma * sigma), 2 * cv.z / (sigma * sigma));
   out.curvature = glm::length(glm::cross(d1, d2)) / std::pow(glm::length(d1), 3);
   return out;
+}
+
+std::vector<LocalCurve> fit_local_curves(const std::vector<glm::dvec3>& points, double sigma) {
+  const double reach = 3.0 * sigma;
+  const PointBuckets buckets(points.size(), [&](size_t i) { return points[i]; }, reach);
+  std::vector<LocalCurve> fits(points.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size()), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<uint32_t> near;
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      near.clear();
+      buckets.for_each_candidate(points[i], [&](uint32_t j) {
+        if (glm::length(points[j] - points[i]) < reach) near.push_back(j);
+      });
+      fits[i] = fit_local_curve(points, near, i, sigma);
+    }
+  });
+  return fits;
 }
 
 }  // namespace cpmesh::fields

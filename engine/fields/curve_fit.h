@@ -20,5 +20,7 @@ struct LocalCurve {
 // across it are quadratics of the arc parameter along it.
 LocalCurve fit_local_curve(const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near, size_t i,
                            double sigma);
+// fit_local_curve at every point of one curve's samples, each from its neighbours within 3 sigma (in parallel).
+std::vector<LocalCurve> fit_local_curves(const std::vector<glm::dvec3>& points, double sigma);
 
 }  // namespace cpmesh::fields

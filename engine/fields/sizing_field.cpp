@@ -234,19 +234,10 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     if (m.empty()) continue;
     std::vector<glm::dvec3> points(m.size());
     for (size_t i = 0; i < m.size(); ++i) points[i] = glm::dvec3(glm::vec3(E.fine[m[i] * size_t(per_block)]));
-    const PointBuckets near_points(points.size(), [&](size_t i) { return points[i]; }, 3.0 * sigma);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.size()), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<uint32_t> near;
-      for (size_t i = r.begin(); i < r.end(); ++i) {
-        near.clear();
-        near_points.for_each_candidate(points[i], [&](uint32_t j) {
-          if (glm::length(points[j] - points[i]) < 3.0 * sigma) near.push_back(j);
-        });
-        const LocalCurve fit = fit_local_curve(points, near, i, sigma);
-        if (fit.valid && fit.rms <= kCurveMaxRms * cell_size && fit.curvature > 1e-12)
-          curve_radius[m[i]] = 1.0 / fit.curvature;
-      }
-    });
+    const std::vector<LocalCurve> fits = fit_local_curves(points, sigma);
+    for (size_t i = 0; i < m.size(); ++i)
+      if (fits[i].valid && fits[i].rms <= kCurveMaxRms * cell_size && fits[i].curvature > 1e-12)
+        curve_radius[m[i]] = 1.0 / fits[i].curvature;
   }
 
   // 2. Raw h per voxel cell: the smallest over the interface blocks in it and the triple curves' curvature there.
