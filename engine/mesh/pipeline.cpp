@@ -194,6 +194,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   std::vector<uint8_t> on_curve(kind.size());
   for (size_t v = 0; v < kind.size(); ++v) on_curve[v] = kind[v] != uint8_t(fields::FeatureKind::interface);
   rep.surface = triangle_stats(I.vertices, I.triangles);
+  rep.crossing_triangles = crossing_triangles(I.vertices, I.triangles).size();
   {
     std::vector<std::array<uint32_t, 3>> at_junction, away;
     for (const auto& tri : I.triangles)
@@ -224,8 +225,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   }
   {
     char d[160];
-    std::snprintf(d, sizeof d, "radius ratio mean %.3f, min %.3f; %zu of %zu interfaces manifold", rep.surface.mean_radius_ratio,
-                  rep.surface.min_radius_ratio, rep.interfaces_manifold, rep.interfaces.size());
+    std::snprintf(d, sizeof d, "radius ratio mean %.3f, min %.3f; %zu of %zu interfaces manifold%s",
+                  rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
+                  rep.interfaces.size(), rep.crossing_triangles ? "; triangles cross" : "");
     stage_done(d);
   }
 

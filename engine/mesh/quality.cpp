@@ -4,6 +4,12 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <unordered_map>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "fields/grid.h"
 
 namespace cpmesh::mesh {
 
@@ -108,6 +114,102 @@ std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t,
     std::copy(mats.begin(), mats.end(), c.materials.begin());
     out.push_back(c);
   }
+  return out;
+}
+
+namespace {
+
+double orient(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  return glm::dot(b - a, glm::cross(c - a, d - a));
+}
+
+// The open segment pq crosses the open triangle abc (strictly: p and q on opposite sides of its plane, the line
+// through the triangle's inside).
+bool segment_crosses(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b,
+                     const glm::dvec3& c) {
+  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
+  if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
+  const double u = orient(p, q, a, b), v = orient(p, q, b, c), w = orient(p, q, c, a);
+  return (u > 0 && v > 0 && w > 0) || (u < 0 && v < 0 && w < 0);
+}
+
+bool triangles_cross(const std::vector<glm::dvec3>& V, const std::array<uint32_t, 3>& s,
+                     const std::array<uint32_t, 3>& t) {
+  int shared = 0, si = -1, ti = -1;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (s[size_t(i)] == t[size_t(j)]) {
+        ++shared;
+        si = i;
+        ti = j;
+      }
+  if (shared >= 2) return false;
+  auto edges_cross = [&](const std::array<uint32_t, 3>& x, const std::array<uint32_t, 3>& y, int skip_at) {
+    for (int e = 0; e < 3; ++e) {
+      // shared vertex at skip_at: only the edge opposite it, (skip_at + 1, skip_at + 2)
+      if (skip_at >= 0 && e != (skip_at + 1) % 3) continue;
+      if (segment_crosses(V[x[size_t(e)]], V[x[size_t((e + 1) % 3)]], V[y[0]], V[y[1]], V[y[2]])) return true;
+    }
+    return false;
+  };
+  return edges_cross(s, t, shared ? si : -1) || edges_cross(t, s, shared ? ti : -1);
+}
+
+}  // namespace
+
+std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::dvec3>& V,
+                                                        const std::vector<std::array<uint32_t, 3>>& T,
+                                                        const std::vector<uint8_t>* only) {
+  std::vector<std::array<uint32_t, 2>> out;
+  if (T.size() < 2) return out;
+  std::vector<double> lengths;
+  lengths.reserve(T.size());
+  for (const auto& t : T) lengths.push_back(glm::length(V[t[1]] - V[t[0]]));
+  std::nth_element(lengths.begin(), lengths.begin() + std::ptrdiff_t(lengths.size() / 2), lengths.end());
+  const double width = std::max(2 * lengths[lengths.size() / 2], 1e-9);
+  auto box = [&](const std::array<uint32_t, 3>& t, glm::dvec3& lo, glm::dvec3& hi) {
+    lo = glm::min(V[t[0]], glm::min(V[t[1]], V[t[2]]));
+    hi = glm::max(V[t[0]], glm::max(V[t[1]], V[t[2]]));
+  };
+  std::unordered_map<uint64_t, std::vector<uint32_t>> cells;
+  auto for_cells = [&](const glm::dvec3& lo, const glm::dvec3& hi, auto&& visit) {
+    const glm::ivec3 a(glm::floor(lo / width)), b(glm::floor(hi / width));
+    for (int z = a.z; z <= b.z; ++z)
+      for (int y = a.y; y <= b.y; ++y)
+        for (int x = a.x; x <= b.x; ++x) visit(fields::cell_key({x, y, z}));
+  };
+  for (uint32_t t = 0; t < T.size(); ++t) {
+    glm::dvec3 lo, hi;
+    box(T[t], lo, hi);
+    for_cells(lo, hi, [&](uint64_t key) { cells[key].push_back(t); });
+  }
+  std::vector<std::vector<std::array<uint32_t, 2>>> found(T.size());
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(T.size()), 256), [&](const tbb::blocked_range<uint32_t>& r) {
+    std::vector<uint32_t> seen;
+    for (uint32_t t = r.begin(); t < r.end(); ++t) {
+      if (only && !(*only)[t]) continue;
+      glm::dvec3 lo, hi;
+      box(T[t], lo, hi);
+      seen.clear();
+      for_cells(lo, hi, [&](uint64_t key) {
+        const auto it = cells.find(key);
+        if (it == cells.end()) return;
+        for (uint32_t u : it->second) {
+          if (u == t || (u < t && (!only || (*only)[u]))) continue;  // each pair once
+          glm::dvec3 ulo, uhi;
+          box(T[u], ulo, uhi);
+          if (glm::any(glm::lessThan(uhi, lo)) || glm::any(glm::greaterThan(ulo, hi))) continue;
+          seen.push_back(u);
+        }
+      });
+      std::sort(seen.begin(), seen.end());
+      seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+      for (uint32_t u : seen)
+        if (triangles_cross(V, T[t], T[u])) found[t].push_back({std::min(t, u), std::max(t, u)});
+    }
+  });
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  std::sort(out.begin(), out.end());
   return out;
 }
 

@@ -41,6 +41,16 @@ struct CurveEdge {
 };
 std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t, 3>>& triangles,
                                           const std::vector<std::array<uint16_t, 2>>& pair);
+// Pairs of triangles (t < u) that cross each other anywhere but at the vertices and edges they share: the interface
+// meshes must not, or no volume mesher can fill them (TetGen stops on "a segment and a subface intersect").
+// Two triangles that are not coplanar intersect exactly when an edge of one crosses the other; triangles sharing a
+// vertex can only cross along their edges opposite it, and triangles sharing an edge are left to the flip checks.
+// Strict sign tests in double precision: touching counts as not crossing. With `only` (one flag per triangle), only
+// pairs with at least one flagged triangle are tested. Triangles go into hashed cubic cells of twice the median
+// edge length, each into every cell its bounding box meets.
+std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::dvec3>& vertices,
+                                                        const std::vector<std::array<uint32_t, 3>>& triangles,
+                                                        const std::vector<uint8_t>* only = nullptr);
 // Edges of the triangles used an odd number of times (0: closed).
 size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& triangles);
 

@@ -20,6 +20,35 @@ namespace {
 
 glm::dvec3 normal_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) { return glm::cross(b - a, c - a); }
 
+// Moves checked one vertex at a time cannot see the rest of the mesh: where a layer is thinner than the triangles
+// are wide (a one-voxel shell), a vertex pulled towards its neighbours' centroid can push its triangles through
+// the other side's. Undoes, back to `start` (the round's crossing-free positions), every moved vertex of two
+// crossing triangles, then every moved vertex of a triangle that the undoing flipped against its start, until
+// neither is left. Returns how many moves were undone.
+size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<std::array<uint32_t, 3>>& T,
+                      std::vector<glm::dvec3>& V) {
+  size_t undone = 0;
+  auto undo = [&](uint32_t v) {
+    if (V[v] == start[v]) return false;
+    V[v] = start[v];
+    ++undone;
+    return true;
+  };
+  std::vector<uint8_t> moved(T.size());
+  for (;;) {
+    for (size_t t = 0; t < T.size(); ++t) moved[t] = V[T[t][0]] != start[T[t][0]] || V[T[t][1]] != start[T[t][1]] ||
+                                                     V[T[t][2]] != start[T[t][2]];
+    bool changed = false;
+    for (const auto& pair : crossing_triangles(V, T, &moved))
+      for (uint32_t t : pair)
+        for (uint32_t v : T[t]) changed |= undo(v);
+    for (const auto& t : T)
+      if (glm::dot(normal_of(V[t[0]], V[t[1]], V[t[2]]), normal_of(start[t[0]], start[t[1]], start[t[2]])) <= 0)
+        for (uint32_t v : t) changed |= undo(v);
+    if (!changed) return undone;
+  }
+}
+
 }  // namespace
 
 SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
@@ -88,6 +117,7 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
     });
     // Accepted one vertex at a time against the current positions: no triangle may flip, the worst one around the
     // vertex may not get worse.
+    const std::vector<glm::dvec3> start = V;
     size_t moves = 0;
     for (uint32_t v = 0; v < nv; ++v) {
       if (!has[v]) continue;
@@ -108,6 +138,9 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
         ++report.refused;
       }
     }
+    const size_t undone = undo_crossings(start, T, V);
+    moves -= undone;
+    report.refused += undone;
     report.moves += moves;
     ++report.rounds;
     if (moves == 0) break;

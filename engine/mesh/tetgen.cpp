@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <cstring>
 #include <sstream>
+#include <tuple>
+#include <algorithm>
 #include <stdexcept>
 
 #include <sys/wait.h>
@@ -155,10 +157,42 @@ Tets run_forked(const std::string& switches, tetgenio& in) {
 
 Tets delaunay(const std::vector<glm::dvec3>& points) {
   if (points.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
+  // TetGen drops coincident points from its output list, so every later index would name the wrong input point
+  // (seen on the 64^3 shells: two particles of the one-voxel shell at one float position scrambled the mesh after
+  // the second, and its volume mesh never finished recovering the boundary). Exact duplicates are merged here: the
+  // first of each is meshed, the others stay out of every tet.
+  std::vector<uint32_t> order(points.size());
+  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  auto less = [&](uint32_t a, uint32_t b) {
+    const auto &p = points[a], &q = points[b];
+    return std::tie(p.x, p.y, p.z, a) < std::tie(q.x, q.y, q.z, b);
+  };
+  std::sort(order.begin(), order.end(), less);
+  std::vector<uint8_t> duplicate(points.size(), 0);
+  for (size_t k = 1; k < order.size(); ++k) duplicate[order[k]] = points[order[k]] == points[order[k - 1]];
+  std::vector<glm::dvec3> unique;
+  std::vector<uint32_t> input_of;  // unique index -> input index
+  for (uint32_t i = 0; i < points.size(); ++i)
+    if (!duplicate[i]) {
+      unique.push_back(points[i]);
+      input_of.push_back(i);
+    }
+  if (unique.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 distinct points, got " + std::to_string(unique.size()));
   tetgenio in, out;
-  set_points(in, points);
+  set_points(in, unique);
   run("Qz", in, out);
   Tets t = read_output(out);
+  // TetGen lists the points it kept, in input order; one it dropped (coincident within its own tolerance) shifts every
+  // later index. Map each output point to its input point by walking both lists.
+  std::vector<uint32_t> input_at(t.points.size());
+  size_t next = 0;
+  for (size_t j = 0; j < t.points.size(); ++j) {
+    while (next < unique.size() && unique[next] != t.points[j]) ++next;
+    if (next == unique.size()) throw std::runtime_error("TetGen (Qz) returned a point that is not in its input");
+    input_at[j] = input_of[next++];
+  }
+  for (auto& tet : t.tets)
+    for (auto& v : tet) v = input_at[v];
   t.points = points;  // no Steiner points: keep the exact input
   return t;
 }
@@ -171,8 +205,22 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
     throw std::invalid_argument("volume mesh: max radius-edge ratio must be >= 1.2 and min dihedral angle in [0, 18] "
                                 "degrees, got " + std::to_string(options.max_radius_edge) + " and " +
                                 std::to_string(options.min_dihedral));
+  // Only the triangles' vertices go to TetGen. The caller's list also holds points no triangle uses (particles left
+  // out near junctions, merged duplicates), and TetGen drops an input point that coincides with another from its
+  // output list, which would shift every later index.
+  std::vector<uint32_t> compact(points.size(), UINT32_MAX), used;
+  for (const auto& tri : triangles)
+    for (uint32_t v : tri)
+      if (compact[v] == UINT32_MAX) compact[v] = 0;
+  for (uint32_t v = 0; v < points.size(); ++v)
+    if (compact[v] != UINT32_MAX) {
+      compact[v] = uint32_t(used.size());
+      used.push_back(v);
+    }
+  std::vector<glm::dvec3> used_points;
+  for (uint32_t v : used) used_points.push_back(points[v]);
   tetgenio in;
-  set_points(in, points);
+  set_points(in, used_points);
   in.numberoffacets = int(triangles.size());
   in.facetlist = new tetgenio::facet[triangles.size()];
   in.facetmarkerlist = new int[triangles.size()];
@@ -184,7 +232,7 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
     f.holelist = nullptr;
     f.polygonlist[0].numberofvertices = 3;
     f.polygonlist[0].vertexlist = new int[3];
-    for (int a = 0; a < 3; ++a) f.polygonlist[0].vertexlist[a] = int(triangles[i][size_t(a)]);
+    for (int a = 0; a < 3; ++a) f.polygonlist[0].vertexlist[a] = int(compact[triangles[i][size_t(a)]]);
     in.facetmarkerlist[i] = markers.empty() ? 0 : markers[i];
   }
   in.numberofregions = int(regions.size());
@@ -205,11 +253,22 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
   // which happens when a material's boundary is not closed and its region leaks into the outside. The caller's
   // triangles and fixed vertices would then index the wrong points.
   size_t kept = 0;
-  while (kept < points.size() && kept < t.points.size() && t.points[kept] == points[kept]) ++kept;
-  if (kept < points.size())
-    throw std::runtime_error("TetGen dropped surface vertices (" + std::to_string(points.size()) + " given, the first " +
+  while (kept < used.size() && kept < t.points.size() && t.points[kept] == used_points[kept]) ++kept;
+  if (kept < used.size())
+    throw std::runtime_error("TetGen dropped surface vertices (" + std::to_string(used.size()) + " given, the first " +
                              std::to_string(kept) + " kept in place): a material's boundary is not closed, so its "
                              "region leaked outside");
+  // Back to the caller's numbering: all of its points first (those no triangle uses are in no tet), then the new ones.
+  auto caller_index = [&](uint32_t j) {
+    return j < used.size() ? used[j] : uint32_t(points.size() + (j - used.size()));
+  };
+  for (auto& tet : t.tets)
+    for (auto& v : tet) v = caller_index(v);
+  for (auto& f : t.faces)
+    for (auto& v : f) v = caller_index(v);
+  std::vector<glm::dvec3> all = points;
+  all.insert(all.end(), t.points.begin() + std::ptrdiff_t(used.size()), t.points.end());
+  t.points = std::move(all);
   return t;
 }
 

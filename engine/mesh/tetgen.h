@@ -18,8 +18,8 @@ struct Tets {
   std::vector<int> face_marker;                 // per face: the input facet marker
 };
 
-// Delaunay tetrahedralization of a point set (TetGen "Qz"). Duplicate points are merged by TetGen; every output
-// index refers to the input points.
+// Delaunay tetrahedralization of a point set (TetGen "Qz"). Of points at exactly the same place only the first is
+// meshed; every output index refers to the input points.
 Tets delaunay(const std::vector<glm::dvec3>& points);
 
 struct QualityOptions {
@@ -37,6 +37,7 @@ struct Region {
 // Quality constrained tetrahedralization of the closed triangle surfaces `triangles` over `points` (TetGen
 // "pq/AY"), each region labelled by the attribute of the seed inside it; space outside every closed surface is not
 // meshed. Markers are carried to the output faces. Throws std::runtime_error with TetGen's reason on failure.
+// Output numbering: `points` first, unchanged (those no triangle uses are in no tet), then the points TetGen added.
 Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                          const std::vector<int>& markers, const std::vector<Region>& regions,
                          const QualityOptions& options);

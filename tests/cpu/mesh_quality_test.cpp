@@ -36,3 +36,30 @@ TEST_CASE("distance_to_triple_curve: wedge ball curves, and none for other mater
   CHECK(d == doctest::Approx(1.0).epsilon(1e-9));  // the axis curve is parallel to z
   CHECK(std::isinf(io::distance_to_triple_curve(s.junctions, {0, 1, 4}, north)));
 }
+
+TEST_CASE("crossing_triangles: triangles through each other, and shared or touching ones that are not crossings") {
+  const std::vector<glm::dvec3> V = {
+      {0, 0, 0},   {4, 0, 0},   {0, 4, 0},  {1, 1, -1}, {1, 1, 1},     {2, 0.5, 1},  // 0-5: A, and B piercing it
+      {10, 0, 0},  {14, 0, 0},  {10, 4, 0}, {8, 0, 1},  {10, -2, 1},   {13, 3, 1},   // 6-11
+      {20, 0, 0},  {24, 0, 0},  {20, 4, 0}, {21, 1, -1}, {22.5, 1.5, 1},             // 12-16
+      {30, 0, 0},  {34, 0, 0},  {30, 4, 0}, {30, 0, 0}, {28, 0, 1},    {30, -2, 1},  // 17-22
+  };
+  const std::vector<std::array<uint32_t, 3>> T = {
+      {0, 1, 2},     // 0
+      {3, 4, 5},     // 1: its edge 3-4 passes through triangle 0 at (1, 1, 0)
+      {6, 7, 8},     // 2
+      {6, 9, 10},    // 3: shares vertex 6 with triangle 2 and bends away from it
+      {7, 8, 11},    // 4: shares edge 7-8 with triangle 2 (left to the flip checks)
+      {12, 13, 14},  // 5
+      {14, 15, 16},  // 6: shares vertex 14 with triangle 5; its opposite edge 15-16 passes through triangle 5
+      {17, 18, 19},  // 7
+      {20, 21, 22},  // 8: vertex 20 sits on triangle 7's corner 17 without being it: touching, not crossing
+  };
+  CHECK(mesh::crossing_triangles(V, T) == std::vector<std::array<uint32_t, 2>>{{0, 1}, {5, 6}});
+  // Only pairs with a flagged triangle are tested.
+  std::vector<uint8_t> only(T.size(), 0);
+  only[6] = 1;
+  CHECK(mesh::crossing_triangles(V, T, &only) == std::vector<std::array<uint32_t, 2>>{{5, 6}});
+  only = {0, 0, 1, 1, 1, 0, 0, 1, 1};
+  CHECK(mesh::crossing_triangles(V, T, &only).empty());
+}

@@ -186,6 +186,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               e["manifold"] = ir.check.manifold();
               j["interfaces"].push_back(e);
             }
+            j["crossing_triangles"] = rep.crossing_triangles;
             j["materials"] = nlohmann::json::array();
             for (const auto& mr : rep.materials)
               j["materials"].push_back({{"label", mr.label}, {"boundary_triangles", mr.boundary_triangles},
@@ -222,9 +223,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         "relabelled, %zu curve points added, %zu left\n",
                         rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
                         rep.added_curve_points, rep.wrong_faces);
-            std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials closed\n",
+            std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials "
+                        "closed; %zu crossing triangle pairs\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
-                        rep.interfaces.size(), rep.materials_closed, rep.materials.size());
+                        rep.interfaces.size(), rep.materials_closed, rep.materials.size(), rep.crossing_triangles);
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty())
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
