@@ -268,21 +268,30 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
         rep.tet_improvement.min_dihedral_after = again.min_dihedral_after;
         rep.tet_improvement.moves += again.moves;
       }
+      // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
+      // readers reject or warn about nodes no element uses.
       auto& out = result.volume;
-      for (const auto& p : V.points) {
-        const glm::dvec3 q = grid.to_physical(p);
-        out.vertices.push_back({q.x, q.y, q.z});
-      }
+      std::vector<uint32_t> renumber(V.points.size(), UINT32_MAX);
+      auto out_index = [&](uint32_t v) {
+        if (renumber[v] == UINT32_MAX) {
+          renumber[v] = uint32_t(out.vertices.size());
+          const glm::dvec3 q = grid.to_physical(V.points[v]);
+          out.vertices.push_back({q.x, q.y, q.z});
+        }
+        return renumber[v];
+      };
       const auto fallback = label_tets(F.fields, V);
       std::vector<std::vector<std::array<uint32_t, 4>>> per_material(labels.size());
       for (size_t i = 0; i < V.tets.size(); ++i) {
         const int region = V.region.empty() ? 0 : V.region[i];
         const uint16_t m = region >= 1 && size_t(region) <= labels.size() ? uint16_t(region - 1) : fallback[i];
-        out.tets.push_back(V.tets[i]);
+        out.tets.push_back({out_index(V.tets[i][0]), out_index(V.tets[i][1]), out_index(V.tets[i][2]),
+                            out_index(V.tets[i][3])});
         out.tet_material.push_back(labels[m]);
         per_material[m].push_back(V.tets[i]);
       }
-      out.triangles = I.triangles;  // -Y: the interface triangles are kept as they are, same vertex indices
+      for (const auto& t : I.triangles)  // -Y: the interface triangles are kept as they are
+        out.triangles.push_back({out_index(t[0]), out_index(t[1]), out_index(t[2])});
       out.triangle_pair = result.surfaces.triangle_pair;
       rep.volume = tet_stats(V.points, V.tets);
       for (size_t m = 0; m < labels.size(); ++m) rep.materials[m].tets = tet_stats(V.points, per_material[m]);
