@@ -128,6 +128,7 @@ int main(int argc, char** argv) {
           {"share_below_0_5", rep.surface.share_below_half}, {"min_dihedral_deg", rep.volume.min_dihedral_deg},
           {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
+          {"crossing_triangles", rep.crossing_triangles},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
           {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"max_particles", max_particles}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
