@@ -3,8 +3,6 @@
 #include <cstdio>
 #include <cstring>
 #include <sstream>
-#include <tuple>
-#include <algorithm>
 #include <stdexcept>
 
 #include <sys/wait.h>
@@ -157,39 +155,20 @@ Tets run_forked(const std::string& switches, tetgenio& in) {
 
 Tets delaunay(const std::vector<glm::dvec3>& points) {
   if (points.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
-  // TetGen drops coincident points from its output list, so every later index would name the wrong input point
-  // (seen on the 64^3 shells: two particles of the one-voxel shell at one float position scrambled the mesh after
-  // the second, and its volume mesh never finished recovering the boundary). Exact duplicates are merged here: the
-  // first of each is meshed, the others stay out of every tet.
-  std::vector<uint32_t> order(points.size());
-  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-  auto less = [&](uint32_t a, uint32_t b) {
-    const auto &p = points[a], &q = points[b];
-    return std::tie(p.x, p.y, p.z, a) < std::tie(q.x, q.y, q.z, b);
-  };
-  std::sort(order.begin(), order.end(), less);
-  std::vector<uint8_t> duplicate(points.size(), 0);
-  for (size_t k = 1; k < order.size(); ++k) duplicate[order[k]] = points[order[k]] == points[order[k - 1]];
-  std::vector<glm::dvec3> unique;
-  std::vector<uint32_t> input_of;  // unique index -> input index
-  for (uint32_t i = 0; i < points.size(); ++i)
-    if (!duplicate[i]) {
-      unique.push_back(points[i]);
-      input_of.push_back(i);
-    }
-  if (unique.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 distinct points, got " + std::to_string(unique.size()));
   tetgenio in, out;
-  set_points(in, unique);
+  set_points(in, points);
   run("Qz", in, out);
   Tets t = read_output(out);
-  // TetGen lists the points it kept, in input order; one it dropped (coincident within its own tolerance) shifts every
-  // later index. Map each output point to its input point by walking both lists.
+  // TetGen lists the points it kept, in input order, and drops one that coincides with an earlier one; that shifted
+  // every later index (seen on the 64^3 shells: two particles of the one-voxel shell at one float position
+  // scrambled the mesh after the second, and its volume mesh never finished recovering the boundary). Each output
+  // point is mapped to its input point by walking both lists, so a dropped point is in no tet.
   std::vector<uint32_t> input_at(t.points.size());
   size_t next = 0;
   for (size_t j = 0; j < t.points.size(); ++j) {
-    while (next < unique.size() && unique[next] != t.points[j]) ++next;
-    if (next == unique.size()) throw std::runtime_error("TetGen (Qz) returned a point that is not in its input");
-    input_at[j] = input_of[next++];
+    while (next < points.size() && points[next] != t.points[j]) ++next;
+    if (next == points.size()) throw std::runtime_error("TetGen (Qz) returned a point that is not in its input");
+    input_at[j] = uint32_t(next++);
   }
   for (auto& tet : t.tets)
     for (auto& v : tet) v = input_at[v];
@@ -208,12 +187,12 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
   // Only the triangles' vertices go to TetGen. The caller's list also holds points no triangle uses (particles left
   // out near junctions, merged duplicates), and TetGen drops an input point that coincides with another from its
   // output list, which would shift every later index.
-  std::vector<uint32_t> compact(points.size(), UINT32_MAX), used;
+  std::vector<uint8_t> referenced(points.size(), 0);
   for (const auto& tri : triangles)
-    for (uint32_t v : tri)
-      if (compact[v] == UINT32_MAX) compact[v] = 0;
+    for (uint32_t v : tri) referenced[v] = 1;
+  std::vector<uint32_t> compact(points.size(), UINT32_MAX), used;  // caller index <-> TetGen index
   for (uint32_t v = 0; v < points.size(); ++v)
-    if (compact[v] != UINT32_MAX) {
+    if (referenced[v]) {
       compact[v] = uint32_t(used.size());
       used.push_back(v);
     }
