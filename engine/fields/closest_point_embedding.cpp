@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <cmath>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -140,9 +141,128 @@ FeatureKind kind_of(size_t count) {
   return count == 2 ? FeatureKind::interface : (count == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point);
 }
 
+// The T-junction extrapolation (see the header, triple_curve_moves): the move of the curve point p of `feature`
+// to where its stem interface, extended as a line, meets its through surface, interpolated as a parabola, both in
+// the plane across the curve at p. 0 where the curve is no T-junction, a side has too few samples, or the move
+// would exceed a voxel.
+glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& feature, const glm::dvec3& p) {
+  constexpr double kNear = 2.5, kFar = 6.0, kStep = 0.5;  // voxels: the samples' distances from p
+  constexpr size_t kMinSamples = 4;
+  constexpr double kOpposite = -0.866;  // cos 150 degrees: the through surface's two sides at least this far apart
+  const double h = F.grid.min_spacing();
+  const int m[3] = {feature.materials[0], feature.materials[1], feature.materials[2]};
+  double f[3];
+  glm::dvec3 grad[3];
+  auto sample = [&](const glm::dvec3& x) {
+    sample_feature_fields(F, m, 3, x, f, grad);
+    for (auto& g : grad) g /= F.grid.spacing;
+  };
+  sample(p);
+  const glm::dvec3 t0 = glm::cross(grad[0] - grad[1], grad[0] - grad[2]);
+  if (!(glm::length(t0) > 1e-12)) return glm::dvec3(0.0);
+  const glm::dvec3 t = glm::normalize(t0);  // the curve's tangent
+  const glm::dvec3 e1 = glm::normalize(glm::cross(t, std::fabs(t.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0)));
+  const glm::dvec3 e2 = glm::cross(t, e1);
+  const std::array<glm::dvec3, 3> grad_p = {grad[0], grad[1], grad[2]};
+  auto across = [&](const glm::dvec3& v) { return glm::dvec2(glm::dot(v, e1), glm::dot(v, e2)); };
+  // Interface k is the one between the two materials other than k: x = pair[k][0], y = pair[k][1].
+  constexpr int pair[3][2] = {{1, 2}, {0, 2}, {0, 1}};
+  // Each interface's points, marching out from p: every step continues in the direction from p to the last point
+  // (the directions at p itself are the rounded fields', tens of degrees off) and is projected onto the zero set
+  // within the plane across the curve. The march stops where the point leaves the interface's patch.
+  std::array<std::vector<glm::dvec2>, 3> points;
+  std::array<glm::dvec2, 3> dir;
+  for (int k = 0; k < 3; ++k) {
+    const int x = pair[k][0], y = pair[k][1];
+    glm::dvec2 d = across(glm::cross(t, grad_p[size_t(x)] - grad_p[size_t(y)]));
+    if (!(glm::length(d) > 1e-12)) return glm::dvec3(0.0);
+    d = glm::normalize(d);
+    if (glm::dot(d, across(grad_p[size_t(x)] - grad_p[size_t(k)])) < 0) d = -d;  // away from material k
+    for (double s = kNear; s <= kFar + 1e-9; s += kStep) {
+      glm::dvec3 q = p + (s * h) * (e1 * d.x + e2 * d.y);
+      bool converged = false;
+      for (int it = 0; it < 12 && !converged; ++it) {
+        sample(q);
+        const double g = f[x] - f[y];
+        glm::dvec3 gg = grad[x] - grad[y];
+        gg -= glm::dot(gg, t) * t;
+        const double n2 = glm::dot(gg, gg);
+        if (n2 < 1e-20) break;
+        glm::dvec3 step = gg * (g / n2);
+        if (glm::length(step) > h) step *= h / glm::length(step);
+        q -= step;
+        converged = std::fabs(g) < 1e-4 * h && glm::length(step) < 1e-4 * h;
+      }
+      if (!converged) break;
+      sample(q);
+      if (f[x] < f[k] || f[y] < f[k]) break;  // beyond another curve
+      const glm::dvec2 v = across(q - p);
+      if (glm::length(v) < 0.5 * s * h) break;  // turned back towards p
+      points[size_t(k)].push_back(v / h);        // voxel units from here on
+      d = glm::normalize(v);
+    }
+    if (points[size_t(k)].size() < kMinSamples) return glm::dvec3(0.0);
+    glm::dvec2 mean(0.0);
+    for (const auto& v : points[size_t(k)]) mean += v;
+    dir[size_t(k)] = glm::normalize(mean);
+  }
+  // The stem is the interface between the two most nearly opposite others (the through surface).
+  int stem = -1;
+  double most = kOpposite;
+  for (int k = 0; k < 3; ++k) {
+    const double c = glm::dot(dir[size_t((k + 1) % 3)], dir[size_t((k + 2) % 3)]);
+    if (c < most) most = c, stem = k;
+  }
+  if (stem < 0) return glm::dvec3(0.0);
+  const auto& side_a = points[size_t((stem + 1) % 3)];
+  const auto& side_b = points[size_t((stem + 2) % 3)];
+  // Through surface: v = c0 + c1 u + c2 u^2, u along (dir a - dir b), by least squares over both sides.
+  const glm::dvec2 u_axis = glm::normalize(dir[size_t((stem + 1) % 3)] - dir[size_t((stem + 2) % 3)]);
+  const glm::dvec2 v_axis(-u_axis.y, u_axis.x);
+  glm::dmat3 A(0.0);
+  glm::dvec3 rhs(0.0);
+  for (const auto* side : {&side_a, &side_b})
+    for (const auto& q : *side) {
+      const double u = glm::dot(q, u_axis);
+      const glm::dvec3 row(1, u, u * u);
+      A += glm::outerProduct(row, row);
+      rhs += row * glm::dot(q, v_axis);
+    }
+  if (!(std::fabs(glm::determinant(A)) > 1e-9)) return glm::dvec3(0.0);
+  const glm::dvec3 c = glm::inverse(A) * rhs;
+  // Stem: offset o = o0 + o1 s across its direction, by least squares.
+  const glm::dvec2 sd = dir[size_t(stem)], sn(-sd.y, sd.x);
+  double S = 0, Ss = 0, Sss = 0, So = 0, Sso = 0;
+  for (const auto& q : points[size_t(stem)]) {
+    const double s = glm::dot(q, sd), o = glm::dot(q, sn);
+    S += 1, Ss += s, Sss += s * s, So += o, Sso += s * o;
+  }
+  const double det = S * Sss - Ss * Ss;
+  if (!(std::fabs(det) > 1e-9)) return glm::dvec3(0.0);
+  const double o0 = (Sss * So - Ss * Sso) / det, o1 = (S * Sso - Ss * So) / det;
+  // Where the line meets the parabola: Newton on s from p's end of the line.
+  auto on_stem = [&](double s) { return sd * s + sn * (o0 + o1 * s); };
+  auto gap = [&](double s) {
+    const glm::dvec2 q = on_stem(s);
+    const double u = glm::dot(q, u_axis);
+    return glm::dot(q, v_axis) - (c.x + c.y * u + c.z * u * u);
+  };
+  double s = 0;
+  for (int it = 0; it < 20; ++it) {
+    const double g = gap(s), dg = (gap(s + 1e-4) - g) / 1e-4;
+    if (!(std::fabs(dg) > 1e-9)) return glm::dvec3(0.0);
+    s -= std::clamp(g / dg, -1.0, 1.0);
+  }
+  if (!(std::fabs(gap(s)) < 1e-6)) return glm::dvec3(0.0);
+  const glm::dvec2 q = on_stem(s) * h;
+  const glm::dvec3 move = e1 * q.x + e2 * q.y;
+  return glm::length(move) <= h ? move : glm::dvec3(0.0);
+}
+
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
 // closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
-std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner, double sigma) {
+std::vector<CurveMove> curve_moves(const IndicatorFields& F, const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner,
+                                   double sigma, bool extrapolate) {
   const double h = E.grid.min_spacing();
   const double cell = 0.25 * h;
   auto key_of = [](const glm::dvec3& x, double size) { return cell_key(glm::ivec3(glm::floor(x / size))); };
@@ -164,7 +284,15 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
     if (sum.empty()) continue;
     std::vector<glm::dvec3> reps(sum.size());
     for (size_t r = 0; r < reps.size(); ++r) reps[r] = sum[r] / double(count[r]);
-    const std::vector<LocalCurve> fits = fit_local_curves(reps, sigma);
+    // First to where the interfaces meet when extended into the junction, then along the curve.
+    std::vector<glm::dvec3> extrapolated(reps.size(), glm::dvec3(0.0));
+    if (extrapolate)
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, reps.size()), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t r = range.begin(); r < range.end(); ++r) extrapolated[r] = junction_extrapolation(F, feature, reps[r]);
+      });
+    std::vector<glm::dvec3> corrected(reps.size());
+    for (size_t r = 0; r < reps.size(); ++r) corrected[r] = reps[r] + extrapolated[r];
+    const std::vector<LocalCurve> fits = fit_local_curves(corrected, sigma);
     std::vector<glm::dvec3> quads;  // this curve's ends
     for (const auto& qp : E.quadruple_points) {
       const auto& qm = E.features[qp.feature].materials;
@@ -181,7 +309,9 @@ std::vector<CurveMove> curve_moves(const ClosestPointEmbedding& E, const std::ve
       double to_quad = std::numeric_limits<double>::infinity();
       for (const auto& q : quads) to_quad = std::min(to_quad, glm::length(q - reps[r]));
       const double t = std::clamp(to_quad / (2.0 * sigma), 0.0, 1.0);
-      out[first + r] = {reps[r], moves ? fit.offset * (t * t * (3 - 2 * t)) : glm::dvec3(0.0)};
+      const double fade = t * t * (3 - 2 * t);
+      out[first + r] = {reps[r], moves ? (extrapolated[r] + fit.offset) * fade : glm::dvec3(0.0),
+                        moves && fade > 0 && glm::length(extrapolated[r]) > 0};
     }
   }
   return out;
@@ -487,7 +617,7 @@ std::vector<CurveMove> triple_curve_moves(const IndicatorFields& F, const Embedd
   if (options.curve_smoothing <= 0) return {};
   std::vector<uint32_t> owner;
   const ClosestPointEmbedding curves = build_embedding(F, options, true, &owner);
-  return curve_moves(curves, owner, options.curve_smoothing * F.grid.min_spacing());
+  return curve_moves(F, curves, owner, options.curve_smoothing * F.grid.min_spacing(), options.junction_extrapolation);
 }
 
 size_t warp_fields(IndicatorFields& F, const std::vector<CurveMove>& moves) {
@@ -562,6 +692,7 @@ CurveSmoothing smooth_triple_curves(IndicatorFields& F, const EmbeddingOptions& 
   for (const auto& m : moves) {
     const double d = glm::length(m.move / F.grid.min_spacing());
     out.moved_points += d > 0;
+    out.extrapolated_points += m.extrapolated;
     out.largest_move = std::max(out.largest_move, d);
   }
   out.changed_values = warp_fields(F, moves);

@@ -48,6 +48,8 @@ struct EmbeddingOptions {
   int closest_point_rounds = 3;  // Newton + tangent re-projection rounds towards the true foot point
   double curve_smoothing = 3.0;  // voxels: sigma of the local quadratic fit that smooths triple curves along
                                  // themselves (below; 0: off)
+  bool junction_extrapolation = true;  // before that fit, T-junction curve points go to where their interfaces,
+                                       // extended from 2.5-6 voxels away, meet (below; needs curve_smoothing)
 };
 
 struct ClosestPointEmbedding {
@@ -100,32 +102,47 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 
 // Triple curves smoothed along themselves, done on the fields before the embedding is built (fields/fields_stage.cpp).
 // Where a curve crosses a staircase step of one of its interfaces, the fields put it up to 0.8 voxel off (128^3 wedge
-// ball), and no isotropic smoothing of the fields moves it: the step is in the data. Along the curve that step is a
-// bump a few voxels long. So:
+// ball), and no isotropic smoothing of the fields moves it: the step is in the data. So:
 //  - triple_curve_moves: the curves' points (an embedding of the curves alone; one point per quarter-voxel cell) each
-//    get the move to a weighted local quadratic fit of the curve's points within 3 sigma (quadratic, so a curved
-//    curve is not shrunk), fading to none within 2 sigma of the quadruple points (they end the curve and are located
-//    on their own). A fit whose points do not lie along one smooth curve (residual over a quarter voxel: two curves
-//    close together, a tiny loop) or that would move a point more than half a voxel moves nothing.
+//    get a move in two steps, fading to none within 2 sigma of the quadruple points (they end the curve and are
+//    located on their own):
+//    1. T-junction extrapolation (EmbeddingOptions::junction_extrapolation). Where one material's flat side meets
+//       two others (a plane ending on a ball: the "stem" ends on the "through surface"), the fields bend the stem
+//       within about two voxels of the curve towards its last staircase step, because the smoothing there averages
+//       it with the distance fields' extension of that step into the third material: up to 0.7 voxel at the 128^3
+//       wedge ball's rim, where the rim runs along a grid axis, the step has the same phase for several voxels, and
+//       no fit along the curve can average it. Both surfaces are right a few voxels away. So in the plane across the
+//       curve at the point, each interface is sampled 2.5-6 voxels out (marching along its zero set); the two most
+//       nearly opposite ones (150 degrees or more) are the through surface, fitted with one parabola across the
+//       gap, the third is the stem, fitted with a line; the point goes to where they meet. Y-junctions (no such
+//       pair), interfaces shorter than the samples, and moves over a voxel are left alone.
+//    2. The move to a weighted local quadratic fit of the (moved) curve points within 3 sigma (quadratic, so a
+//       curved curve is not shrunk). A fit whose points do not lie along one smooth curve (residual over a quarter
+//       voxel: two curves close together, a tiny loop) or that would move a point more than half a voxel moves
+//       nothing.
 //  - warp_fields: every field takes, at voxel x, its value at x - d(x), where d is the mean move of the curve points
 //    near x, in full within a voxel of a curve and fading to none 3.5 voxels away. So the curve moves and the
 //    interfaces that meet there bend with it: moving the embedding's curve points alone left the surfaces' ends where
 //    they were, and the meshes lost their manifold interfaces. Returns how many voxel values changed.
 //  - smooth_triple_curves: both, with what they did.
-// Measured on the wedge ball, embedding curve points to the analytic curves, max (mean), voxels, against no smoothing:
-// 40^3 0.72 (0.25) vs 0.72 (0.26); 48^3 0.55 (0.24) vs 0.62 (0.26); 64^3 0.51 (0.21) vs 0.62 (0.24); 96^3 0.63 (0.24)
-// vs 0.65 (0.27); 128^3 0.70 (0.23) vs 0.82 (0.26). What is left at 40^3 is a quadruple point 0.72 off (the pole,
-// where three wedge tips meet the background), at 128^3 a rim curve whose interface's staircase step runs along it
-// (the same phase for several voxels, so no fit along the curve can average it).
+// Measured on the wedge ball, the meshes' triple-curve edges (midpoints) to the analytic curves, mean / max in
+// voxels, seeds 1 and 2, with the extrapolation against without it (both with the fit):
+// 40^3 0.17 / 0.50 and 0.16 / 0.49 vs 0.23 / 0.56 and 0.23 / 0.56; 48^3 0.15 / 0.37 and 0.14 / 0.34 vs
+// 0.23 / 0.46 and 0.23 / 0.51; 64^3 0.18 / 0.56 and 0.18 / 0.59 vs 0.20 / 0.42 and 0.20 / 0.44; 128^3 (seed 1)
+// 0.18 / 0.49 vs 0.19 / 0.65. What limits it is the planes' own staircase ripple a few voxels from the curve
+// (+-0.3 voxel at 64^3, with a period of about 13 voxels for a plane near the diagonal), which the stem's line
+// extrapolates; at 40^3, the south pole, where three wedge tips meet the background.
 struct CurveMove {
-  glm::dvec3 position;  // a curve point, local coordinates
-  glm::dvec3 move;      // where the smoothing moves it (0: not moved)
+  glm::dvec3 position;        // a curve point, local coordinates
+  glm::dvec3 move;            // where the smoothing moves it (0: not moved)
+  bool extrapolated = false;  // the move includes a T-junction extrapolation
 };
 std::vector<CurveMove> triple_curve_moves(const IndicatorFields& fields, const EmbeddingOptions& options = {});
 size_t warp_fields(IndicatorFields& fields, const std::vector<CurveMove>& moves);
 struct CurveSmoothing {
   size_t curve_points = 0;    // representatives measured (one per quarter-voxel cell of a curve)
   size_t moved_points = 0;    // of those, moved
+  size_t extrapolated_points = 0;  // of those, moved with a T-junction extrapolation
   double largest_move = 0;    // voxels
   size_t changed_values = 0;  // field values the warp changed, all materials
 };

@@ -58,6 +58,10 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
                   "near the curves are moved with them (0: off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub->add_flag("!--no-junction-extrapolation", f.embedding.junction_extrapolation,
+                "Before that fit, do not move T-junction curve points (a surface ending on another) to where their "
+                "interfaces, extended from 2.5-6 voxels away, meet (on by default: the wedge ball's mesh curves lie "
+                "0.15 instead of 0.23 voxel off on average at 48^3)");
   sub->add_option("--band", f.indicator.band, "Narrow band of the indicator fields, voxels")->capture_default_str();
   sub->add_option("--subcells", f.embedding.sub, "Closest point embedding: fine points per voxel and axis (1/S)")
       ->check(CLI::Range(1, 4))->capture_default_str();
@@ -168,6 +172,8 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
               j["curve_smoothing"] = {{"sigma_voxels", o->fields.embedding.curve_smoothing},
                                       {"curve_points", rep.curve_smoothing.curve_points},
                                       {"moved_points", rep.curve_smoothing.moved_points},
+                                      {"junction_extrapolation", o->fields.embedding.junction_extrapolation},
+                                      {"extrapolated_points", rep.curve_smoothing.extrapolated_points},
                                       {"largest_move_voxels", rep.curve_smoothing.largest_move},
                                       {"changed_field_values", rep.curve_smoothing.changed_values}};
               j["sizing"] = {{"min", rep.sizing.h_min}, {"mean", rep.sizing.h_mean}, {"max", rep.sizing.h_max},
@@ -192,9 +198,11 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
             std::printf("  tightening r = %g voxel: %llu voxel centres changed material, %llu voxels in thin parts kept\n",
                         o->fields.indicator.tighten_radius, (unsigned long long)moved,
                         (unsigned long long)r.fields.protected_voxels);
-            std::printf("  curve smoothing sigma = %g voxel: %zu of %zu curve points moved, by %.2f voxel at most\n",
+            std::printf("  curve smoothing sigma = %g voxel: %zu of %zu curve points moved (%zu at T-junctions), by %.2f voxel "
+                        "at most\n",
                         o->fields.embedding.curve_smoothing, rep.curve_smoothing.moved_points,
-                        rep.curve_smoothing.curve_points, rep.curve_smoothing.largest_move);
+                        rep.curve_smoothing.curve_points, rep.curve_smoothing.extrapolated_points,
+                        rep.curve_smoothing.largest_move);
             std::printf("  sizing h: min %.3g, mean %.3g, max %.3g (physical units)\n", rep.sizing.h_min,
                         rep.sizing.h_mean, rep.sizing.h_max);
             std::printf("  wrote %s\n", o->out.c_str());
