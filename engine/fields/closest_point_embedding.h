@@ -114,8 +114,9 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 //       no fit along the curve can average it. Both surfaces are right a few voxels away. So in the plane across the
 //       curve at the point, each interface is sampled 2.5-6 voxels out (marching along its zero set); the two most
 //       nearly opposite ones (150 degrees or more) are the through surface, fitted with one parabola across the
-//       gap, the third is the stem, fitted with a line; the point goes to where they meet. Y-junctions (no such
-//       pair), interfaces shorter than the samples, and moves over a voxel are left alone.
+//       gap, the third is the stem, fitted with a line; the point goes 0.6 of the way to where they meet (the
+//       meeting point carries the interfaces' staircase ripple, so a partial move errs least). Y-junctions (no
+//       such pair), interfaces shorter than the samples, and moves over a voxel are left alone.
 //    2. The move to a weighted local quadratic fit of the (moved) curve points within 3 sigma (quadratic, so a
 //       curved curve is not shrunk). A fit whose points do not lie along one smooth curve (residual over a quarter
 //       voxel: two curves close together, a tiny loop) or that would move a point more than half a voxel moves
@@ -126,12 +127,12 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 //    they were, and the meshes lost their manifold interfaces. Returns how many voxel values changed.
 //  - smooth_triple_curves: both, with what they did.
 // Measured on the wedge ball, the meshes' triple-curve edges (midpoints) to the analytic curves, mean / max in
-// voxels, seeds 1 and 2, with the extrapolation against without it (both with the fit):
-// 40^3 0.17 / 0.50 and 0.16 / 0.49 vs 0.23 / 0.56 and 0.23 / 0.56; 48^3 0.15 / 0.37 and 0.14 / 0.34 vs
-// 0.23 / 0.46 and 0.23 / 0.51; 64^3 0.18 / 0.56 and 0.18 / 0.59 vs 0.20 / 0.42 and 0.20 / 0.44; 128^3 (seed 1)
-// 0.18 / 0.49 vs 0.19 / 0.65. What limits it is the planes' own staircase ripple a few voxels from the curve
-// (+-0.3 voxel at 64^3, with a period of about 13 voxels for a plane near the diagonal), which the stem's line
-// extrapolates; at 40^3, the south pole, where three wedge tips meet the background.
+// voxels, with the extrapolation against without it (both with the fit): 40^3 (seeds 1, 2) 0.16 / 0.51-0.52 vs
+// 0.23 / 0.56; 48^3 (seeds 1-3) 0.12 / 0.29-0.34 vs 0.21-0.23 / 0.46-0.51; 64^3 (seeds 1, 2) 0.14 / 0.40-0.46 vs
+// 0.20 / 0.42-0.44; 128^3 (seeds 1, 2) 0.12-0.13 / 0.46-0.49 vs 0.19-0.20 / 0.65-0.66. What limits it: the planes'
+// own staircase ripple a few voxels from the curve (+-0.3 voxel at 64^3, with a period of about 13 voxels for a
+// plane near the diagonal), curves on the small inner ball (too curved to pass as a T-junction at 48^3), and
+// the quadruple points (at 40^3 the south pole, where three wedge tips meet the background, 0.7 voxel off).
 struct CurveMove {
   glm::dvec3 position;        // a curve point, local coordinates
   glm::dvec3 move;            // where the smoothing moves it (0: not moved)

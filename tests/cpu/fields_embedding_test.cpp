@@ -214,7 +214,7 @@ TEST_CASE("curve smoothing: the wedge ball's curves move towards the analytic on
   MESSAGE(done.moved_points << " of " << done.curve_points << " curve points moved, by " << done.largest_move
                             << " voxel at most; curve points to the analytic curves: mean " << mean0 << " -> " << mean1
                             << ", max " << max0 << " -> " << max1 << " voxel");
-  CHECK(mean1 < mean0 - 0.03);  // measured 0.256 -> 0.216 (0.239 without the T-junction extrapolation)
+  CHECK(mean1 < mean0 - 0.05);  // measured 0.256 -> 0.182 (0.239 without the T-junction extrapolation)
   CHECK(max1 < max0 - 0.03);    // measured 0.618 -> 0.548 (the same without it)
   // The quadruple points end the curves and stay where they were.
   REQUIRE(E1.quadruple_points.size() == E0.quadruple_points.size());
@@ -250,7 +250,6 @@ TEST_CASE("curve smoothing: the wedge ball's curves move towards the analytic on
 TEST_CASE("T-junction extrapolation: the rim curves move onto the extended interfaces, the Y-junction axis does not") {
   // The wedge ball's rim curves are T-junctions (a wedge plane ends on the ball's surface); the axis where the three
   // wedges meet at 120 degrees is a Y-junction and gets no extrapolation, so its moves are those of the fit alone.
-  // (The meshes gain more than these curve points: triple-curve edges at 48^3, max 0.46 -> 0.37; see the header.)
   const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
   const auto F = build_indicator_fields(wb.grid, wb.labels.data());
   EmbeddingOptions fit_only;
@@ -289,9 +288,9 @@ TEST_CASE("T-junction extrapolation: the rim curves move onto the extended inter
               << " axis points, largest difference " << axis_difference);
   REQUIRE(rim > 100);
   REQUIRE(axis > 20);
-  CHECK(axis_difference < 0.01);  // measured 0.0008: the fit near the quadruple points sees moved points of others
-  CHECK(rim_with < 0.92 * rim_without);              // measured 0.223 -> 0.192
-  CHECK(rim_worst_with < rim_worst_without - 0.05);  // measured 0.477 -> 0.392
+  CHECK(axis_difference < 0.01);  // measured 0.0005: the fit near the quadruple points sees moved points of others
+  CHECK(rim_with < 0.7 * rim_without);               // measured 0.223 -> 0.122
+  CHECK(rim_worst_with < rim_worst_without - 0.05);  // measured 0.477 -> 0.394
 }
 
 TEST_CASE("junction correction: no offsets where thin layers make the junctions") {
