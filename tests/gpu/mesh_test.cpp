@@ -209,26 +209,29 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(shared > 50);
   // Mesh edges on triple curves (both ends curve or quadruple-point vertices, in triangles of three material pairs or
   // more): distance of their midpoints to the analytic curves.
-  double worst = 0, sum = 0;
+  double worst = 0, sum = 0, whole = 0;
   size_t n = 0;
   for (const auto& e : mesh::triple_curve_edges(r.surfaces.triangles, r.surfaces.triangle_pair)) {
     if (r.surfaces.vertex_feature[e.a] == uint8_t(io::VertexFeature::interface) ||
         r.surfaces.vertex_feature[e.b] == uint8_t(io::VertexFeature::interface))
       continue;
-    const glm::dvec3 mid = 0.5 * (vec(r.surfaces.vertices[e.a]) + vec(r.surfaces.vertices[e.b]));
-    const double d = test::distance_to_curve(wb.junctions, e.materials, mid);  // both physical
+    const glm::dvec3 a = vec(r.surfaces.vertices[e.a]), b = vec(r.surfaces.vertices[e.b]);
+    const double d = test::distance_to_curve(wb.junctions, e.materials, 0.5 * (a + b));  // both physical
     worst = std::max(worst, d);
     sum += d;
     ++n;
+    for (int q = 0; q <= 8; ++q)
+      whole = std::max(whole, test::distance_to_curve(wb.junctions, e.materials, a + (b - a) * (q / 8.0)));
   }
   MESSAGE(n << " triple-curve edges: midpoint distance to the analytic curves mean " << sum / double(std::max<size_t>(n, 1))
-            << ", max " << worst << " voxel");
+            << ", max " << worst << " voxel; whole edges (ends included) max " << whole);
   CHECK(n > 30);
   // Measured at 40^3: mean 0.16, max 0.51 (issue 8 asks for 0.5; 0.34 on the bundled 48^3 volume). Without the
   // T-junction extrapolation (closest_point_embedding.h): mean 0.23, max 0.56; before, without the junction
   // correction: mean 0.30, max 0.66.
   CHECK(sum / double(std::max<size_t>(n, 1)) < 0.2);
   CHECK(worst < 0.55);
+  CHECK(whole < 0.8);  // measured 0.70: the south pole's quadruple point, which the 40^3 data puts anywhere in a voxel
   CHECK(rep.volume_error.empty());
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
 

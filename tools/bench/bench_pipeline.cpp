@@ -30,11 +30,11 @@ using bench::peak_rss_mib;
 
 namespace {
 
-// "mean/max" in voxels, or "-" where the volume has no analytic junctions.
+// "mean/max/whole-edge max" in voxels, or "-" where the volume has no analytic junctions.
 std::string junction_cell(bool known, const bench::JunctionError& e) {
   if (!known) return "-";
   char cell[64];
-  std::snprintf(cell, sizeof cell, "%.2f/%.2f", e.mean, e.max);
+  std::snprintf(cell, sizeof cell, "%.2f/%.2f/%.2f", e.mean, e.max, e.max_whole_edge);
   return cell;
 }
 
@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
     std::printf("Pipeline on %s\n%-16s", ctx.info().name.c_str(), "volume");
     for (const char* s : {"fields", "seeding", "advection", "delaunay", "smoothing", "quality", "volume"})
       std::printf(" %9s", s);
-    std::printf(" %8s %9s %9s %9s %6s %6s %8s %11s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
+    std::printf(" %8s %9s %9s %9s %6s %6s %8s %14s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
                 "rr min", "dihedral", "junction", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
       const auto volume = bench::load_volume_spec(spec);
@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
       if (junctions)
         je = bench::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
                                    std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
-      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %11s %8.0f %8.0f\n", total, rep.particles,
+      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
                   rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
                   rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
       nlohmann::json j = {
@@ -158,8 +158,9 @@ int main(int argc, char** argv) {
             pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
             pje.mean = pj["junction_error"]["mean"].get<double>();
             pje.max = pj["junction_error"]["max"].get<double>();
+            pje.max_whole_edge = pj["junction_error"].value("max_whole_edge", 0.0);
           }
-          std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %11s\n", pj["total_s"].get<double>(), "-",
+          std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %14s\n", pj["total_s"].get<double>(), "-",
                       pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
                       pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
                       junction_cell(pj.contains("junction_error"), pje).c_str());

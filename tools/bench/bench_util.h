@@ -49,11 +49,14 @@ inline std::optional<io::Junctions> synth_junctions(const std::string& spec) {
 }
 
 // Junction error of interface meshes (any mesher's): the mesh's triple-curve edges (mesh::triple_curve_edges), the
-// distance of their midpoints to the analytic curves of the same three materials, in voxels.
+// distance of their midpoints to the analytic curves of the same three materials, in voxels; and the largest distance
+// of any point of an edge (its ends and 7 points between them), where the ends' own errors (curve vertices,
+// quadruple points) show.
 struct JunctionError {
   size_t edges = 0;
   size_t spurious = 0;  // triple edges between three materials that have no curve in common
   double mean = 0, max = 0;
+  double max_whole_edge = 0;
 };
 inline JunctionError junction_error(const io::Junctions& j, const std::vector<std::array<double, 3>>& vertices,
                                     const std::vector<std::array<uint32_t, 3>>& triangles,
@@ -70,6 +73,15 @@ inline JunctionError junction_error(const io::Junctions& j, const std::vector<st
     }
     e.mean += d;
     e.max = std::max(e.max, d);
+    e.max_whole_edge = std::max(e.max_whole_edge, d);
+    for (int q = 0; q <= 8; ++q) {
+      const double t = q / 8.0;
+      e.max_whole_edge = std::max(
+          e.max_whole_edge,
+          io::distance_to_triple_curve(j, c.materials,
+                                       {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])}) /
+              voxel);
+    }
     ++e.edges;
   }
   if (e.edges) e.mean /= double(e.edges);
@@ -77,7 +89,8 @@ inline JunctionError junction_error(const io::Junctions& j, const std::vector<st
 }
 
 inline nlohmann::json junction_json(const JunctionError& e) {
-  return {{"edges", e.edges}, {"spurious", e.spurious}, {"mean", e.mean}, {"max", e.max}};
+  return {{"edges", e.edges}, {"spurious", e.spurious}, {"mean", e.mean}, {"max", e.max},
+          {"max_whole_edge", e.max_whole_edge}};
 }
 
 }  // namespace cpmesh::bench
