@@ -129,7 +129,7 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 // Measured on the wedge ball, the meshes' triple-curve edges (midpoints) to the analytic curves, mean / max in
 // voxels, with the extrapolation against without it (both with the fit): 40^3 (seeds 1, 2) 0.16 / 0.51-0.52 vs
 // 0.23 / 0.56; 48^3 (seeds 1-3) 0.12 / 0.29-0.34 vs 0.21-0.23 / 0.46-0.51; 64^3 (seeds 1, 2) 0.14 / 0.40-0.46 vs
-// 0.20 / 0.42-0.44; 128^3 (seeds 1, 2) 0.12-0.13 / 0.46-0.49 vs 0.19-0.20 / 0.65-0.66. What limits it: the planes'
+// 0.20 / 0.42-0.44; 128^3 (seeds 1, 2) 0.12 / 0.37-0.38 vs 0.19-0.20 / 0.65-0.66. What limits it: the planes'
 // own staircase ripple a few voxels from the curve (+-0.3 voxel at 64^3, with a period of about 13 voxels for a
 // plane near the diagonal), curves on the small inner ball (too curved to pass as a T-junction at 48^3), and
 // the quadruple points (at 40^3 the south pole, where three wedge tips meet the background, 0.7 voxel off).
