@@ -1,9 +1,9 @@
 #include "fields/closest_point_embedding.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <map>
-#include <cmath>
 #include <mutex>
 #include <set>
 #include <stdexcept>

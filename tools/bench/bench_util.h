@@ -73,8 +73,7 @@ inline JunctionError junction_error(const io::Junctions& j, const std::vector<st
     }
     e.mean += d;
     e.max = std::max(e.max, d);
-    e.max_whole_edge = std::max(e.max_whole_edge, d);
-    for (int q = 0; q <= 8; ++q) {
+    for (int q = 0; q <= 8; ++q) {  // q = 4 is the midpoint
       const double t = q / 8.0;
       e.max_whole_edge = std::max(
           e.max_whole_edge,
