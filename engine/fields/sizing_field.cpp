@@ -113,6 +113,9 @@ constexpr int kAveragingPasses = 3;
 // A triple curve's curvature: Gaussian weights of this width (cells) along it; a fit whose points stray further than
 // kCurveMaxRms cells (rms) from it is not one smooth curve and sets nothing.
 constexpr double kCurveSigmaCells = 2.0, kCurveMaxRms = 0.25;
+// Neighbouring particles on a triple curve settle about this many h apart (measured on the wedge ball's inner-ball
+// curves at 48^3-128^3: nearest neighbours 1.14-1.27 h, the mesh edges between them up to 1.45 h).
+constexpr double kCurveSpacing = 1.4;
 
 }  // namespace
 
@@ -240,6 +243,13 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
         curve_radius[m[i]] = 1.0 / fits[i].curvature;
   }
 
+  // A chord of length L strays L^2 / (8 r) from a curve of radius r: h <= sqrt(8 r chord) / kCurveSpacing keeps the
+  // curve edges within `chord` of the curve. h = density * r alone lets them stray 0.06 r (0.5 voxel at r = 8 voxels,
+  // where h_max starts to bound it): on the 64^3 wedge ball, a 5.7-voxel edge of a 9-voxel circle was 0.51 voxel off
+  // at its midpoint with both ends within 0.21. Measured on the wedge ball (surface meshes, seed 1): largest distance
+  // of a curve edge to the analytic curves 0.46 -> 0.44 voxel at 48^3, 0.51 -> 0.46 at 64^3, 0.46 -> 0.44 at 128^3,
+  // for 0.5-5% more particles.
+  const double chord = options.curve_chord > 0 ? options.curve_chord * grid.min_spacing() : 1e300;
   // 2. Raw h per voxel cell: the smallest over the interface blocks in it and the triple curves' curvature there.
   //    Junction features take the h of the interfaces around them through the cells they share.
   std::vector<uint64_t> cells(blocks);
@@ -272,7 +282,8 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   }
   for (size_t b = 0; b < blocks; ++b) {
     if (curve_radius[b] >= 1e300) continue;
-    const double h = options.density * curve_radius[b];
+    const double h = std::min(options.density * curve_radius[b],
+                              std::sqrt(8 * curve_radius[b] * chord) / kCurveSpacing);
     double& cell_h = hc[size_t(cell_slot(block_key[b] >> 16))];
     if (h < cell_h) ++stats.curve_limited;
     cell_h = std::min(cell_h, std::clamp(h, h_min, h_max));

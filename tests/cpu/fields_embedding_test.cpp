@@ -247,9 +247,11 @@ TEST_CASE("curve smoothing: the wedge ball's curves move towards the analytic on
   CHECK(smooth_triple_curves(F2, off).changed_values == 0);
 }
 
-TEST_CASE("T-junction extrapolation: the rim curves move onto the extended interfaces, the Y-junction axis does not") {
-  // The wedge ball's rim curves are T-junctions (a wedge plane ends on the ball's surface); the axis where the three
-  // wedges meet at 120 degrees is a Y-junction and gets no extrapolation, so its moves are those of the fit alone.
+TEST_CASE("T-junction extrapolation: rim and inner-ball curves move onto the extended interfaces, the Y-junction axis does not") {
+  // The wedge ball's rim curves are T-junctions (a wedge plane ends on the ball's flat-looking surface), and so are the
+  // inner-ball curves (a plane ends on a ball of radius 6.75 voxels, whose own curvature bends its two sides 45
+  // degrees towards each other); the axis where the three wedges meet at 120 degrees is a Y-junction and gets no
+  // extrapolation, so away from the quadruple points its moves are those of the fit alone.
   const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
   const auto F = build_indicator_fields(wb.grid, wb.labels.data());
   EmbeddingOptions fit_only;
@@ -265,32 +267,53 @@ TEST_CASE("T-junction extrapolation: the rim curves move onto the extended inter
     }
     return best;
   };
-  double rim_with = 0, rim_without = 0, rim_worst_with = 0, rim_worst_without = 0, axis_difference = 0;
-  size_t rim = 0, axis = 0;
+  auto to_quadruple_point = [&](const glm::dvec3& p) {
+    double d = std::numeric_limits<double>::infinity();
+    for (const auto& q : wb.junctions.quadruple_points)
+      d = std::min(d, glm::length(p - glm::dvec3(q.position[0], q.position[1], q.position[2])));
+    return d;
+  };
+  struct Error {
+    double with = 0, without = 0, worst_with = 0, worst_without = 0;
+    size_t count = 0;
+  } rim, inner;
+  double axis_difference = 0, axis_difference_near = 0;
+  size_t axis = 0;
   for (size_t i = 0; i < with.size(); ++i) {
     REQUIRE(glm::length(with[i].position - without[i].position) == 0.0);  // the same curve points, in one order
     const auto* curve = nearest_curve(with[i].position);
     REQUIRE(curve);
     const auto& m = curve->materials;
     if (m == std::array<uint16_t, 3>{1, 2, 3}) {
-      axis_difference = std::max(axis_difference, glm::length(with[i].move - without[i].move));
+      double& largest = to_quadruple_point(with[i].position) > 6.0 ? axis_difference : axis_difference_near;
+      largest = std::max(largest, glm::length(with[i].move - without[i].move));
       ++axis;
-    } else if (m[0] == 0 && m[2] <= 3) {
+    } else {
+      Error& e = m[0] == 0 ? rim : inner;
       const double dw = test::distance_to_curve(wb.junctions, m, with[i].position + with[i].move);
       const double dn = test::distance_to_curve(wb.junctions, m, without[i].position + without[i].move);
-      rim_with += dw, rim_without += dn;
-      rim_worst_with = std::max(rim_worst_with, dw), rim_worst_without = std::max(rim_worst_without, dn);
-      ++rim;
+      e.with += dw, e.without += dn;
+      e.worst_with = std::max(e.worst_with, dw), e.worst_without = std::max(e.worst_without, dn);
+      ++e.count;
     }
   }
-  MESSAGE(rim << " rim curve points to the analytic curves: mean " << rim_without / double(rim) << " -> "
-              << rim_with / double(rim) << ", max " << rim_worst_without << " -> " << rim_worst_with << "; " << axis
-              << " axis points, largest difference " << axis_difference);
-  REQUIRE(rim > 100);
+  for (const auto* e : {&rim, &inner})
+    MESSAGE(std::string(e == &rim ? "rim" : "inner-ball") << " curves, " << e->count << " points to the analytic curves: mean "
+                                              << e->without / double(e->count) << " -> " << e->with / double(e->count)
+                                              << ", max " << e->worst_without << " -> " << e->worst_with);
+  MESSAGE(axis << " axis points, largest difference " << axis_difference << " beyond 6 voxels of the quadruple points, "
+               << axis_difference_near << " within");
+  REQUIRE(rim.count > 100);
+  REQUIRE(inner.count > 50);
   REQUIRE(axis > 20);
-  CHECK(axis_difference < 0.01);  // measured 0.0005: the fit near the quadruple points sees moved points of others
-  CHECK(rim_with < 0.7 * rim_without);               // measured 0.223 -> 0.122
-  CHECK(rim_worst_with < rim_worst_without - 0.05);  // measured 0.477 -> 0.394
+  // Within 6 voxels of the poles the wedge planes bend towards the outer sphere, so a few axis points pass as
+  // T-junctions; their moves fade out towards the quadruple points and reach the rest of the axis through the fit.
+  CHECK(axis_difference < 0.01);       // measured 0.009
+  CHECK(axis_difference_near < 0.05);  // measured 0.038
+  CHECK(rim.with < 0.7 * rim.without);                   // measured 0.223 -> 0.122
+  CHECK(rim.worst_with < rim.worst_without - 0.05);      // measured 0.477 -> 0.394
+  CHECK(inner.with < 0.8 * inner.without);               // measured 0.298 -> 0.192
+  CHECK(inner.worst_with < inner.worst_without - 0.05);  // measured 0.502 -> 0.399
 }
 
 TEST_CASE("junction correction: no offsets where thin layers make the junctions") {

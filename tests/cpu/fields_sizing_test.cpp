@@ -96,14 +96,20 @@ TEST_CASE("fit_local_curve: a circle's curvature and a line's") {
   CHECK(straight.rms < 1e-9);
 }
 
-TEST_CASE("wedge ball: a triple curve's own curvature bounds h along it") {
+TEST_CASE("wedge ball: a triple curve's own curvature bounds h along it, and so does its chord error") {
   // The inner ball's curves are circles smaller than the ball (the wedge planes miss its centre); a spacing set by
-  // the ball alone put chords 0.5 voxel off them at 48^3.
+  // the ball alone put chords 0.5 voxel off them at 48^3. Curve particles settle about 1.4 h apart, so a chord
+  // tolerance c keeps 1.4 h <= sqrt(8 r c) (sizing_field.cpp).
   const auto wb = test::make_volume(io::SynthShape::wedge_ball, 48);
   const auto F = build_indicator_fields(wb.grid, wb.labels.data());
   auto E = build_closest_point_embedding(F);
+  auto E_no_chord = E;
+  SizingOptions no_chord;
+  no_chord.curve_chord = 0;
   const auto stats = compute_sizing_field(F, E, SizingOptions{});
+  compute_sizing_field(F, E_no_chord, no_chord);
   CHECK(stats.curve_limited > 0);
+  size_t chord_bound = 0;
   // Each analytic curve's radius: the circumradius of its first, middle and last points (all curves here are arcs
   // of circles or straight segments).
   for (const auto& curve : wb.junctions.triple_curves) {
@@ -116,19 +122,32 @@ TEST_CASE("wedge ball: a triple curve's own curvature bounds h along it") {
     const double radius = glm::length(b - a) * glm::length(c - b) * glm::length(a - c) / (2.0 * area2);
     const int fid = E.feature_index(FeatureKind::triple_curve, {curve.materials[0], curve.materials[1], curve.materials[2], 0xffff});
     REQUIRE(fid >= 0);
-    // h at the curve's points away from its ends (quadruple points take the h of everything around them).
-    std::vector<double> h;
-    for (size_t slot = 0; slot < E.keys.size(); ++slot) {
-      if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != fid) continue;
-      const size_t b = E.blocks[slot];
-      const glm::dvec3 p(glm::vec3(E.fine[b * 8]));
-      const double to_end = std::min(glm::length(p - (a - wb.grid.origin)), glm::length(p - (c - wb.grid.origin)));
-      if (to_end > 4.0) h.push_back(E.fine[b * 8].w);
-    }
-    REQUIRE(!h.empty());
-    std::sort(h.begin(), h.end());
+    // Median h at the curve's points away from its ends (quadruple points take the h of everything around them).
+    auto median_h = [&](const ClosestPointEmbedding& emb) {
+      std::vector<double> h;
+      for (size_t slot = 0; slot < emb.keys.size(); ++slot) {
+        if (emb.keys[slot] == ClosestPointEmbedding::kEmpty || int(emb.keys[slot] & 0xffff) != fid) continue;
+        const size_t b = emb.blocks[slot];
+        const glm::dvec3 p(glm::vec3(emb.fine[b * 8]));
+        const double to_end = std::min(glm::length(p - (a - wb.grid.origin)), glm::length(p - (c - wb.grid.origin)));
+        if (to_end > 4.0) h.push_back(emb.fine[b * 8].w);
+      }
+      REQUIRE(!h.empty());
+      std::sort(h.begin(), h.end());
+      return h[h.size() / 2];
+    };
+    const double h = median_h(E), h_no_chord = median_h(E_no_chord);
+    const double bound = std::sqrt(8 * radius * 0.2) / 1.4;
     MESSAGE("curve " << curve.materials[0] << curve.materials[1] << curve.materials[2] << ": radius " << radius
-                     << ", h median " << h[h.size() / 2] << ", max " << h.back());
-    CHECK(h[h.size() / 2] <= 0.5 * radius * 1.1);
+                     << ", h median " << h << " (chord bound " << bound << "), without the chord bound " << h_no_chord);
+    CHECK(h <= 0.5 * radius * 1.1);
+    CHECK(h <= bound * 1.1);
+    CHECK(h_no_chord <= 0.5 * radius * 1.1);
+    if (bound < 0.9 * h_no_chord) {  // the chord bound is the tighter one: it must have lowered h
+      CHECK(h < 0.9 * h_no_chord);
+      ++chord_bound;
+    }
   }
+  CHECK(chord_bound == 3);  // the three inner-ball curves (h 2.18-2.35 instead of 2.83-3.27); elsewhere the surfaces
+                            // set a smaller h
 }
