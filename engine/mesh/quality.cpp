@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include "fields/grid.h"
+#include "io/synth_volumes.h"
 
 namespace cpmesh::mesh {
 
@@ -115,6 +116,34 @@ std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t,
     out.push_back(c);
   }
   return out;
+}
+
+JunctionError junction_error(const io::Junctions& junctions, const std::vector<std::array<double, 3>>& vertices,
+                             const std::vector<std::array<uint32_t, 3>>& triangles,
+                             const std::vector<std::array<uint16_t, 2>>& pair, double unit,
+                             const std::vector<uint8_t>* on_curve) {
+  JunctionError e;
+  auto point = [&](const std::array<double, 3>& a, const std::array<double, 3>& b, double t) {
+    return std::array<double, 3>{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+  };
+  for (const auto& c : triple_curve_edges(triangles, pair)) {
+    if (on_curve && (!(*on_curve)[c.a] || !(*on_curve)[c.b])) continue;
+    const auto& a = vertices[c.a];
+    const auto& b = vertices[c.b];
+    const double d = io::distance_to_triple_curve(junctions, c.materials, point(a, b, 0.5)) / unit;
+    if (!(d < 1e300)) {  // three materials with no analytic curve between them
+      ++e.spurious;
+      continue;
+    }
+    e.mean += d;
+    e.max = std::max(e.max, d);
+    for (int q = 0; q <= 8; ++q)  // q = 4 is the midpoint
+      e.max_whole_edge =
+          std::max(e.max_whole_edge, io::distance_to_triple_curve(junctions, c.materials, point(a, b, q / 8.0)) / unit);
+    ++e.edges;
+  }
+  if (e.edges) e.mean /= double(e.edges);
+  return e;
 }
 
 namespace {

@@ -11,6 +11,10 @@
 
 #include <glm/glm.hpp>
 
+namespace cpmesh::io {
+struct Junctions;
+}
+
 namespace cpmesh::mesh {
 
 double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
@@ -41,6 +45,21 @@ struct CurveEdge {
 };
 std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t, 3>>& triangles,
                                           const std::vector<std::array<uint16_t, 2>>& pair);
+// Junction error of interface meshes (any mesher's) against analytic triple curves (io::Junctions, the synthetic
+// volumes'): the triple-curve edges' midpoints' distance to the curve of the same three materials (mean, max) and
+// the largest distance of any point of an edge (its ends and 7 points between them), where the ends' own errors
+// (curve vertices, quadruple points) show; in units of `unit` (a voxel). With `on_curve` (one flag per vertex: a
+// triple-curve or quadruple-point particle), edges with an end off the curves are left out.
+struct JunctionError {
+  size_t edges = 0;
+  size_t spurious = 0;  // triple edges between three materials that have no curve in common
+  double mean = 0, max = 0;
+  double max_whole_edge = 0;
+};
+JunctionError junction_error(const io::Junctions& junctions, const std::vector<std::array<double, 3>>& vertices,
+                             const std::vector<std::array<uint32_t, 3>>& triangles,
+                             const std::vector<std::array<uint16_t, 2>>& pair, double unit,
+                             const std::vector<uint8_t>* on_curve = nullptr);
 // Pairs of triangles (t < u) that cross each other anywhere but at the vertices and edges they share: the interface
 // meshes must not, or no volume mesher can fill them (TetGen stops on "a segment and a subface intersect").
 // Two triangles that are not coplanar intersect exactly when an edge of one crosses the other; triangles sharing a

@@ -31,7 +31,7 @@ using bench::peak_rss_mib;
 namespace {
 
 // "mean/max/whole-edge max" in voxels, or "-" where the volume has no analytic junctions.
-std::string junction_cell(bool known, const bench::JunctionError& e) {
+std::string junction_cell(bool known, const mesh::JunctionError& e) {
   if (!known) return "-";
   char cell[64];
   std::snprintf(cell, sizeof cell, "%.2f/%.2f/%.2f", e.mean, e.max, e.max_whole_edge);
@@ -113,9 +113,9 @@ int main(int argc, char** argv) {
       }
       const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
       const auto junctions = bench::synth_junctions(spec);
-      bench::JunctionError je;
+      mesh::JunctionError je;
       if (junctions)
-        je = bench::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
+        je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
                                    std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
       std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
                   rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
           auto pj = nlohmann::json::parse(line);
           std::printf("%-16s", ("  CGAL " + std::to_string(facet).substr(0, 4) + note).c_str());
           for (int k = 0; k < 7; ++k) std::printf(" %9s", "");
-          bench::JunctionError pje;
+          mesh::JunctionError pje;
           if (pj.contains("junction_error")) {
             pje.edges = pj["junction_error"]["edges"].get<size_t>();
             pje.spurious = pj["junction_error"]["spurious"].get<size_t>();

@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
     std::string junction;
     if (const auto j = cpmesh::bench::synth_junctions(spec))
       junction = ",\"junction_error\":" +
-                 cpmesh::bench::junction_json(cpmesh::bench::junction_error(*j, vertices, triangles, pairs, voxel)).dump();
+                 cpmesh::bench::junction_json(cpmesh::mesh::junction_error(*j, vertices, triangles, pairs, voxel)).dump();
     std::printf("{\"benchmark\":\"pipeline_peer\",\"peer\":\"CGAL Mesh_3 %s\",\"volume\":\"%s\",\"facet_size_voxels\":%g,"
                 "\"total_s\":%.4f,\"triangles\":%zu,\"tets\":%zu,\"vertices\":%zu,\"mean_radius_ratio\":%.4f,"
                 "\"min_radius_ratio\":%.4f,\"min_dihedral_deg\":%.3f%s}\n",
