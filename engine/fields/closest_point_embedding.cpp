@@ -167,8 +167,7 @@ std::optional<glm::dvec3> fit_parabola(std::initializer_list<const std::vector<g
 glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& feature, const glm::dvec3& p) {
   constexpr double kNear = 2.5, kFar = 6.0, kStep = 0.5;  // voxels: the samples' distances from p
   constexpr size_t kMinSamples = 4;
-  constexpr double kMaxBend = 30.0;  // degrees: the through surface's two sides, their own curvature allowed for, at
-                                    // least 150 degrees apart
+  constexpr double kMaxBend = 40.0;  // degrees: the through surface's two tangents at p at least 140 degrees apart
   const double h = F.grid.min_spacing();
   const int m[3] = {feature.materials[0], feature.materials[1], feature.materials[2]};
   double f[3];
@@ -189,8 +188,13 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
   // (near a quadruple point, where a wedge plane meets the outer sphere, it would otherwise follow the zero set of two
   // fields on into the fourth material, where their difference is the extension of their distance fields).
   auto beyond_patch = [&](const glm::dvec3& x, double level) {
-    for (size_t o = 0; o < F.fields.size(); ++o)
-      if (int(o) != m[0] && int(o) != m[1] && int(o) != m[2] && F.fields[o].sample_cubic_local(x) > level) return true;
+    const glm::ivec3 v = glm::ivec3(glm::round(x / F.grid.spacing));
+    for (size_t o = 0; o < F.fields.size(); ++o) {
+      if (int(o) == m[0] || int(o) == m[1] || int(o) == m[2]) continue;
+      // The interpolant stays within about a voxel of its nearest sample (as in build_embedding's intruder test).
+      if (F.fields[o].at(v.x, v.y, v.z) < level - 2.0 * h) continue;
+      if (F.fields[o].sample_cubic_local(x) > level) return true;
+    }
     return false;
   };
   // Interface k is the one between the two materials other than k: x = pair[k][0], y = pair[k][1].
@@ -235,33 +239,38 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
     for (const auto& v : points[size_t(k)]) mean += v;
     dir[size_t(k)] = glm::normalize(mean);
   }
-  // The through surface is the pair of interfaces that continue each other across the curve: their mean directions
-  // at least 150 degrees apart once the bend their own curvature explains is allowed for. A chord from the curve to
-  // the point a distance u along a side that curves as v = c2 u^2 turns from the tangent by atan(c2 u), so each side's
-  // own parabola (its bend towards the other side) is taken off the angle between them. Without that allowance a
-  // plane ending on a small ball looked like a Y-junction, where three straight interfaces meet at 120 degrees with
-  // nothing to explain the bend. Measured on the 48^3 wedge ball: on the inner ball (radius 6.75 voxels) the sides'
-  // mean directions are 128-139 degrees apart and bend with c2 = 0.15 (twice the ball's own 1 / (2 r): the fields'
-  // rounding of the junction adds to it), leaving -40 to +14 degrees unexplained; on the axis, a Y-junction, 41-62
-  // degrees stay unexplained except within about 3 voxels of the poles, where the wedge planes bend towards the outer
-  // sphere and a few points pass (their moves fade out there, see curve_moves). The stem is the third interface.
+  // Each interface's tangent at p, turned from its mean direction: w = c1 u + c2 u^2 through p (u along the mean
+  // direction, w across it), fitted to its points, leaves p at atan(c1) from the mean direction. Positive is
+  // counter-clockwise.
+  double turn[3];
+  for (int k = 0; k < 3; ++k) {
+    const glm::dvec2 u_axis = dir[size_t(k)], w_axis(-u_axis.y, u_axis.x);
+    double Suu = 0, Suuu = 0, Suuuu = 0, Suw = 0, Suuw = 0;
+    for (const auto& q : points[size_t(k)]) {
+      const double u = glm::dot(q, u_axis), w = glm::dot(q, w_axis);
+      Suu += u * u, Suuu += u * u * u, Suuuu += u * u * u * u, Suw += u * w, Suuw += u * u * w;
+    }
+    const double det = Suu * Suuuu - Suuu * Suuu;
+    turn[size_t(k)] = std::fabs(det) > 1e-9 ? std::atan((Suuuu * Suw - Suuu * Suuw) / det) : 0.0;
+  }
+  // The through surface is the pair of interfaces that continue each other across the curve: their tangents at p
+  // less than 40 degrees from opposite. The tangents, not the mean directions: where a plane ends on a small ball
+  // (radius 6.75 voxels on the 48^3 wedge ball) the ball's two sides' mean directions are only 128-139 degrees
+  // apart, as far from opposite as at a Y-junction, where three straight interfaces meet at 120 degrees. Measured on
+  // the wedge ball at 40^3-128^3, degrees from opposite: the through pair of the rim and inner-ball curves 12-20
+  // (median), at most 27-42; the other pairs there 51 or more; every pair on the axis, a Y-junction, 40.1 or more
+  // (40.1 at 128^3, 43-47 at 40^3-64^3). The stem is the third interface.
   int stem = -1;
   double least_bend = kMaxBend;
   for (int k = 0; k < 3; ++k) {
-    const glm::dvec2 da = dir[size_t((k + 1) % 3)], db = dir[size_t((k + 2) % 3)];
-    const glm::dvec2 u_axis = glm::normalize(da - db), v_axis(-u_axis.y, u_axis.x);
-    const double towards = glm::dot(v_axis, da + db) >= 0 ? 1.0 : -1.0;  // v_axis's sign that bends towards the other
-    double curvature = 0, mean_u = 0;  // curvature: the two sides' mean, 2 c2 each
-    size_t n = 0;
-    for (int side = 1; side <= 2; ++side) {
-      const auto& pts = points[size_t((k + side) % 3)];
-      const auto c = fit_parabola({&pts}, u_axis, v_axis);
-      curvature += c ? c->z * towards : 0.0;
-      for (const auto& q : pts) mean_u += std::fabs(glm::dot(q, u_axis)), ++n;
-    }
-    mean_u /= double(n);
-    const double angle = glm::degrees(std::acos(std::clamp(glm::dot(da, db), -1.0, 1.0)));
-    const double bend = 180.0 - angle - 2 * glm::degrees(std::atan(std::max(curvature, 0.0) * mean_u / 2));
+    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    auto tangent = [&](int i) {
+      const glm::dvec2 v = dir[size_t(i)];
+      const double c = std::cos(turn[size_t(i)]), s = std::sin(turn[size_t(i)]);
+      return glm::dvec2(c * v.x - s * v.y, s * v.x + c * v.y);
+    };
+    const glm::dvec2 ta = tangent(a), tb = tangent(b);
+    const double bend = 180.0 - glm::degrees(std::acos(std::clamp(glm::dot(ta, tb), -1.0, 1.0)));
     if (bend < least_bend) least_bend = bend, stem = k;
   }
   if (stem < 0) return glm::dvec3(0.0);

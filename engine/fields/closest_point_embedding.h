@@ -113,11 +113,12 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 //       wedge ball's rim, where the rim runs along a grid axis, the step has the same phase for several voxels, and
 //       no fit along the curve can average it. Both surfaces are right a few voxels away. So in the plane across the
 //       curve at the point, each interface is sampled 2.5-6 voxels out (marching along its zero set, up to where a
-//       fourth material takes over); the two most nearly opposite ones (150 degrees or more once the bend that their
-//       own curvature explains is allowed for: a plane ending on a small ball is a T-junction too) are the through
-//       surface, fitted with one parabola across the gap, the third is the stem, fitted with a line; the point goes 0.6 of the way to where they meet (the
-//       meeting point carries the interfaces' staircase ripple, so a partial move errs least). Y-junctions (no
-//       such pair), interfaces shorter than the samples, and moves over a voxel are left alone.
+//       fourth material takes over); the two whose tangents at the point (from a parabola through it, so a plane
+//       ending on a small ball is a T-junction too) are less than 40 degrees from opposite are the through surface,
+//       fitted with one parabola across the gap, the third is the stem, fitted with a line; the point goes 0.6 of
+//       the way to where they meet (the meeting point carries the interfaces' staircase ripple, so a partial move
+//       errs least). Y-junctions (no such pair), interfaces shorter than the samples, and moves over a voxel are
+//       left alone.
 //    2. The move to a weighted local quadratic fit of the (moved) curve points within 3 sigma (quadratic, so a
 //       curved curve is not shrunk). A fit whose points do not lie along one smooth curve (residual over a quarter
 //       voxel: two curves close together, a tiny loop) or that would move a point more than half a voxel moves
@@ -128,14 +129,14 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& field
 //    they were, and the meshes lost their manifold interfaces. Returns how many voxel values changed.
 //  - smooth_triple_curves: both, with what they did.
 // Measured on the wedge ball, the meshes' triple-curve edges (midpoints) to the analytic curves, mean / max in
-// voxels, with the extrapolation against without it (both with the fit): 40^3 (seeds 1, 2) 0.16 / 0.51-0.52 vs
-// 0.23 / 0.56; 48^3 (seeds 1-3) 0.12 / 0.29-0.34 vs 0.21-0.23 / 0.46-0.51; 64^3 (seeds 1, 2) 0.14 / 0.40-0.46 vs
-// 0.20 / 0.42-0.44; 128^3 (seeds 1, 2) 0.12 / 0.37-0.38 vs 0.19-0.20 / 0.65-0.66. With the curvature allowance
-// (the inner-ball curves extrapolated too) and the sizing field's chord bound (sizing_field.h), whole edges (ends
-// included) at most 0.42-0.46 voxel off at 48^3 (seeds 1-3; 0.53-0.54 before), 0.46 at 64^3, 0.43 at 128^3. What
-// limits it: the planes' own staircase ripple a few voxels from the curve (+-0.3 voxel at 64^3, with a period of
-// about 13 voxels for a plane near the diagonal), and the quadruple points (at 40^3 the south pole, where three
-// wedge tips meet the background, 0.7 voxel off).
+// voxels, with the extrapolation against without it (both with the fit), when only flat T-junctions were
+// extrapolated: 40^3 (seeds 1, 2) 0.16 / 0.51-0.52 vs 0.23 / 0.56; 48^3 (seeds 1-3) 0.12 / 0.29-0.34 vs 0.21-0.23 /
+// 0.46-0.51; 64^3 (seeds 1, 2) 0.14 / 0.40-0.46 vs 0.20 / 0.42-0.44; 128^3 (seeds 1, 2) 0.12 / 0.37-0.38 vs
+// 0.19-0.20 / 0.65-0.66. With the inner-ball curves extrapolated too and the sizing field's chord bound
+// (sizing_field.h), whole edges (ends included) at most 0.43-0.46 voxel off at 48^3 (seeds 1-3; 0.53-0.54 before),
+// 0.47 at 64^3, 0.42 at 128^3. What limits it: the planes' own staircase ripple a few voxels from the curve (+-0.3
+// voxel at 64^3, with a period of about 13 voxels for a plane near the diagonal), and the quadruple points (at 40^3
+// the south pole, where three wedge tips meet the background, 0.7 voxel off; curve edge midpoints 0.54 there).
 struct CurveMove {
   glm::dvec3 position;        // a curve point, local coordinates
   glm::dvec3 move;            // where the smoothing moves it (0: not moved)

@@ -246,9 +246,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   // A chord of length L strays L^2 / (8 r) from a curve of radius r: h <= sqrt(8 r chord) / kCurveSpacing keeps the
   // curve edges within `chord` of the curve. h = density * r alone lets them stray 0.06 r (0.5 voxel at r = 8 voxels,
   // where h_max starts to bound it): on the 64^3 wedge ball, a 5.7-voxel edge of a 9-voxel circle was 0.51 voxel off
-  // at its midpoint with both ends within 0.21. Measured on the wedge ball (surface meshes, seed 1): largest distance
-  // of a curve edge to the analytic curves 0.46 -> 0.44 voxel at 48^3, 0.51 -> 0.46 at 64^3, 0.46 -> 0.44 at 128^3,
-  // for 0.5-5% more particles.
+  // at its midpoint with both ends within 0.21. Measured on the wedge ball (surface meshes, seed 1, with the
+  // inner-ball curves' T-junction extrapolation): largest distance of a curve edge to the analytic curves 0.46 ->
+  // 0.44 voxel at 48^3, 0.51 -> 0.46 at 64^3, 0.46 -> 0.44 at 128^3, for 0.5-5% more particles.
   const double chord = options.curve_chord > 0 ? options.curve_chord * grid.min_spacing() : 1e300;
   // 2. Raw h per voxel cell: the smallest over the interface blocks in it and the triple curves' curvature there.
   //    Junction features take the h of the interfaces around them through the cells they share.

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include <tbb/blocked_range.h>
@@ -122,6 +124,9 @@ JunctionError junction_error(const io::Junctions& junctions, const std::vector<s
                              const std::vector<std::array<uint32_t, 3>>& triangles,
                              const std::vector<std::array<uint16_t, 2>>& pair, double unit,
                              const std::vector<uint8_t>* on_curve) {
+  if (on_curve && on_curve->size() != vertices.size())
+    throw std::invalid_argument("junction_error: on_curve has " + std::to_string(on_curve->size()) + " flags for " +
+                                std::to_string(vertices.size()) + " vertices");
   JunctionError e;
   auto point = [&](const std::array<double, 3>& a, const std::array<double, 3>& b, double t) {
     return std::array<double, 3>{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};

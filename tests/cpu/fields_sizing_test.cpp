@@ -137,7 +137,7 @@ TEST_CASE("wedge ball: a triple curve's own curvature bounds h along it, and so 
       return h[h.size() / 2];
     };
     const double h = median_h(E), h_no_chord = median_h(E_no_chord);
-    const double bound = std::sqrt(8 * radius * 0.2) / 1.4;
+    const double bound = std::sqrt(8 * radius * SizingOptions{}.curve_chord) / 1.4;  // 1.4: sizing_field.cpp
     MESSAGE("curve " << curve.materials[0] << curve.materials[1] << curve.materials[2] << ": radius " << radius
                      << ", h median " << h << " (chord bound " << bound << "), without the chord bound " << h_no_chord);
     CHECK(h <= 0.5 * radius * 1.1);
