@@ -240,9 +240,8 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
     dir[size_t(k)] = glm::normalize(mean);
   }
   // Each interface's tangent at p, turned from its mean direction: w = c1 u + c2 u^2 through p (u along the mean
-  // direction, w across it), fitted to its points, leaves p at atan(c1) from the mean direction. Positive is
-  // counter-clockwise.
-  double turn[3];
+  // direction, w across it), fitted to its points, leaves p at atan(c1) from the mean direction.
+  std::array<glm::dvec2, 3> tangent;
   for (int k = 0; k < 3; ++k) {
     const glm::dvec2 u_axis = dir[size_t(k)], w_axis(-u_axis.y, u_axis.x);
     double Suu = 0, Suuu = 0, Suuuu = 0, Suw = 0, Suuw = 0;
@@ -251,7 +250,9 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
       Suu += u * u, Suuu += u * u * u, Suuuu += u * u * u * u, Suw += u * w, Suuw += u * u * w;
     }
     const double det = Suu * Suuuu - Suuu * Suuu;
-    turn[size_t(k)] = std::fabs(det) > 1e-9 ? std::atan((Suuuu * Suw - Suuu * Suuw) / det) : 0.0;
+    const double turn = std::fabs(det) > 1e-9 ? std::atan((Suuuu * Suw - Suuu * Suuw) / det) : 0.0;
+    const double c = std::cos(turn), s = std::sin(turn);  // counter-clockwise
+    tangent[size_t(k)] = glm::dvec2(c * u_axis.x - s * u_axis.y, s * u_axis.x + c * u_axis.y);
   }
   // The through surface is the pair of interfaces that continue each other across the curve: their tangents at p
   // less than 40 degrees from opposite. The tangents, not the mean directions: where a plane ends on a small ball
@@ -263,14 +264,8 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
   int stem = -1;
   double least_bend = kMaxBend;
   for (int k = 0; k < 3; ++k) {
-    const int a = (k + 1) % 3, b = (k + 2) % 3;
-    auto tangent = [&](int i) {
-      const glm::dvec2 v = dir[size_t(i)];
-      const double c = std::cos(turn[size_t(i)]), s = std::sin(turn[size_t(i)]);
-      return glm::dvec2(c * v.x - s * v.y, s * v.x + c * v.y);
-    };
-    const glm::dvec2 ta = tangent(a), tb = tangent(b);
-    const double bend = 180.0 - glm::degrees(std::acos(std::clamp(glm::dot(ta, tb), -1.0, 1.0)));
+    const double cos_ab = glm::dot(tangent[size_t((k + 1) % 3)], tangent[size_t((k + 2) % 3)]);
+    const double bend = 180.0 - glm::degrees(std::acos(std::clamp(cos_ab, -1.0, 1.0)));
     if (bend < least_bend) least_bend = bend, stem = k;
   }
   if (stem < 0) return glm::dvec3(0.0);

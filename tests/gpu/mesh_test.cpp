@@ -266,8 +266,8 @@ TEST_CASE_FIXTURE(GpuFixture, "bundled wedge ball (48^3): triple-curve edges wit
   CHECK(ce.edges > 50);
   CHECK(ce.spurious == 0);
   // Measured (seeds 1-3, only this seed here): whole edges 0.42-0.46, midpoints 0.30-0.35 at most, mean 0.11-0.12.
-  // Before the curvature allowance of the T-junction extrapolation and the sizing field's chord bound: whole edges
-  // 0.53-0.54, on the inner ball's curves.
+  // Before the inner-ball curves passed as T-junctions (tangent test, closest_point_embedding.cpp) and the sizing
+  // field's chord bound: whole edges 0.53-0.54, on the inner ball's curves.
   CHECK(ce.mean < 0.15);
   CHECK(ce.max < 0.45);
   CHECK(ce.max_whole_edge < 0.5);

@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
       mesh::JunctionError je;
       if (junctions)
         je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
-                                   std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
+                                  std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
       std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
                   rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
                   rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
