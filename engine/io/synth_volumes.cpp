@@ -84,6 +84,41 @@ Junctions wedge_ball_junctions(const WedgeBall& w) {
   return j;
 }
 
+// Polynomial smooth minimum of two signed distances (blend width k): rounds the crease where two shapes join.
+double smooth_min(double a, double b, double k) {
+  const double t = std::clamp(0.5 + 0.5 * (b - a) / k, 0.0, 1.0);
+  return b + (a - b) * t - k * t * (1 - t);
+}
+
+// The head phantom (see the header), in voxel units scaled by s = size / 250; every D below is a signed distance
+// (negative inside), exact for the cylinders and radial (along the ray from the centre) for the ellipsoid.
+struct Head {
+  Vec centre;  // voxel units
+  double s;
+  uint16_t label(const Vec& v) const {
+    const Vec q = {v[0] - centre[0], v[1] - centre[1], v[2] - centre[2]};
+    const Vec axes = {78 * s, 100 * s, 90 * s};
+    const double len = std::hypot(q[0], q[1], q[2]);
+    const double rho = std::hypot(q[0] / axes[0], q[1] / axes[1], q[2] / axes[2]);
+    const double d_ell = rho > 1e-12 ? len * (1 - 1 / rho) : -axes[0];
+    // Vertical axis of the neck, the brainstem and its CSF sheath, behind the centre.
+    const double r = std::hypot(q[0], q[1] - 12 * s);
+    const double d_neck = std::max(r - 40 * s, q[2]);
+    const double d_stem = std::max(r - 9 * s, q[2] + 40 * s);
+    const double d_sheath = std::max(r - 14 * s, q[2] + 40 * s);
+    const double thickness = 12 * s + 1.5 * s * std::sin(q[0] / (17 * s)) * std::cos(q[1] / (23 * s));
+    const double l = 6 * s;  // gyri: a gyroid on the brain's surface, period 2 pi l
+    const double g = std::sin(q[0] / l) * std::cos(q[1] / l) + std::sin(q[1] / l) * std::cos(q[2] / l) +
+                     std::sin(q[2] / l) * std::cos(q[0] / l);
+    const double d_brain = smooth_min(d_ell + thickness + 2.5 * s + 9 * s * (g + 1.5) / 3, d_stem, 8 * s);
+    if (d_brain < 0) return 4;
+    if (d_sheath < 0 || d_ell + thickness < 0) return 3;
+    if (d_ell + 5 * s < 0) return 2;
+    if (smooth_min(d_ell, d_neck, 14 * s) < 0) return 1;
+    return 0;
+  }
+};
+
 }  // namespace
 
 double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const Vec& p) {
@@ -106,7 +141,8 @@ SynthShape parse_synth_shape(const std::string& name) {
   if (name == "wedge-ball" || name == "wedge_ball") return SynthShape::wedge_ball;
   if (name == "slabs") return SynthShape::slabs;
   if (name == "shells") return SynthShape::shells;
-  throw Error("field 'shape': expected sphere, wedge-ball, slabs or shells, got '" + name + "'");
+  if (name == "head") return SynthShape::head;
+  throw Error("field 'shape': expected sphere, wedge-ball, slabs, shells or head, got '" + name + "'");
 }
 
 SynthVolume make_synth_volume(const SynthOptions& o) {
@@ -117,6 +153,9 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
   SynthVolume out;
   LabelVolume& v = out.volume;
   v.dims = {o.size, o.size, o.size};
+  if (o.shape == SynthShape::head)  // the seed paper's head is 199 x 250 x 249 voxels
+    v.dims = {std::max<int64_t>(4, std::llround(o.size * 199.0 / 250)), o.size,
+              std::max<int64_t>(4, std::llround(o.size * 249.0 / 250))};
   v.spacing = o.spacing;
   v.format = "synthetic";
   v.file_type = ScalarType::u8;
@@ -162,6 +201,17 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
       };
       break;
     }
+    case SynthShape::head: {
+      const double s = n / 250;
+      // Off-grid like the others; the top of the skull 12 s voxels below the top face, the neck down to z = 0.
+      const Vec c = {(double(v.dims[0]) - 1) / 2 + 0.1, (n - 1) / 2 - 0.2, double(v.dims[2]) - 1 - 102 * s + 0.15};
+      out.centre = {c[0] * h, c[1] * h, c[2] * h};
+      params["centre"] = out.centre;
+      params["scale"] = s;
+      const Head head{c, s};
+      label = [head, h](const Vec& p) { return head.label({p[0] / h, p[1] / h, p[2] / h}); };
+      break;
+    }
     case SynthShape::shells: {
       const double R = (o.radius > 0 ? o.radius : 0.45 * n) * h;
       const std::array<double, 5> radii = {0.35 * R, 0.55 * R, 0.55 * R + 1.5 * h, 0.8 * R, 0.8 * R + 1.0 * h};
@@ -177,13 +227,14 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
       break;
     }
   }
-  for (int64_t k = 0; k < o.size; ++k)
-    for (int64_t j = 0; j < o.size; ++j)
-      for (int64_t i = 0; i < o.size; ++i) v.labels[v.index(i, j, k)] = label(v.position(i, j, k));
+  for (int64_t k = 0; k < v.dims[2]; ++k)
+    for (int64_t j = 0; j < v.dims[1]; ++j)
+      for (int64_t i = 0; i < v.dims[0]; ++i) v.labels[v.index(i, j, k)] = label(v.position(i, j, k));
   params["shape"] = o.shape == SynthShape::sphere       ? "sphere"
                     : o.shape == SynthShape::wedge_ball ? "wedge-ball"
                     : o.shape == SynthShape::slabs      ? "slabs"
-                                                        : "shells";
+                    : o.shape == SynthShape::shells     ? "shells"
+                                                        : "head";
   out.description = params.dump();
   return out;
 }

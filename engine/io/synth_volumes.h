@@ -8,6 +8,11 @@
 //               curves, 4 quadruple points.
 //   slabs:      layers along z: 1, 2, then 3 (two voxels thick), 4 (one voxel thick), 5.
 //   shells:     concentric shells around a core 1: 2, 3 (1.5 voxels thick), 4, 5 (one voxel thick), background 0.
+//   head:       a head phantom the size of the seed paper's head (199 x 250 x 249 voxels at size 250; size is the
+//               y extent and the other two scale with it): air 0, scalp and neck 1, skull 2 (5-8 voxels thick),
+//               CSF 3, a folded brain 4 (gyri 9 voxels deep). A brainstem in a CSF sheath leaves through a hole
+//               in the skull base, so skull, CSF and neck meet along a triple curve; neck and brainstem end at
+//               the volume's bottom face. Four tissues and air; no analytic junctions are written.
 // Lengths given in voxels are multiplied by the smallest spacing, so shapes stay round with anisotropic spacing.
 #include <array>
 #include <cstdint>
@@ -18,11 +23,11 @@
 
 namespace cpmesh::io {
 
-enum class SynthShape { sphere, wedge_ball, slabs, shells };
+enum class SynthShape { sphere, wedge_ball, slabs, shells, head };
 
 struct SynthOptions {
   SynthShape shape = SynthShape::wedge_ball;
-  int64_t size = 64;                    // voxels along each axis
+  int64_t size = 64;                    // voxels along each axis (head: along y)
   std::array<double, 3> spacing{1, 1, 1};
   double radius = 0;                    // outer radius in voxels (sphere, wedge ball, shells); 0: the default
 };
@@ -53,7 +58,7 @@ struct SynthVolume {
 // junctions have no such curve.
 double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const std::array<double, 3>& p);
 
-SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells"
+SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells", "head"
 SynthVolume make_synth_volume(const SynthOptions& o);
 // JSON: {"shape", "parameters", "quadruple_points": [{"materials", "position"}], "triple_curves": [{"materials",
 // "points"}]}, written atomically.

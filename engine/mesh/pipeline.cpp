@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <numeric>
@@ -39,13 +40,50 @@ io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vecto
   return out;
 }
 
+io::LabelVolume close_at_faces(const io::LabelVolume& volume, double width) {
+  const auto& d = volume.dims;
+  bool open = false;
+  for (int64_t k = 0; k < d[2] && !open; ++k)
+    for (int64_t j = 0; j < d[1] && !open; ++j) {
+      const bool face = k == 0 || k == d[2] - 1 || j == 0 || j == d[1] - 1;
+      for (int64_t i = 0; i < d[0]; i += face ? 1 : std::max<int64_t>(1, d[0] - 1))
+        if (volume.labels[volume.index(i, j, k)] != 0) {
+          open = true;
+          break;
+        }
+    }
+  if (!open) return volume;
+  const double h = std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]});
+  std::array<int64_t, 3> pad{};
+  io::LabelVolume out;
+  static_cast<io::VolumeGeometry&>(out) = volume;
+  out.file_type = volume.file_type;
+  out.format = volume.format;
+  out.source = volume.source;
+  for (int a = 0; a < 3; ++a) {
+    pad[a] = std::max<int64_t>(1, int64_t(std::ceil(width * h / volume.spacing[a] - 1e-9)));
+    out.dims[a] = d[a] + 2 * pad[a];
+    out.origin[a] = volume.origin[a] - double(pad[a]) * volume.spacing[a];
+  }
+  out.labels.assign(size_t(out.voxel_count()), 0);
+  for (int64_t k = 0; k < d[2]; ++k)
+    for (int64_t j = 0; j < d[1]; ++j)
+      std::copy_n(volume.labels.begin() + ptrdiff_t(volume.index(0, j, k)), d[0],
+                  out.labels.begin() + ptrdiff_t(out.index(pad[0], j + pad[1], k + pad[2])));
+  return out;
+}
+
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const MeshOptions& options,
                        const StageCallback& on_stage) {
   const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
-  const io::LabelVolume& volume = options.materials.empty() ? input : selected;
+  // Wide enough that the cap's indicator band and smoothing lie inside the padded grid.
+  const auto& ind = options.fields.indicator;
+  const io::LabelVolume volume =
+      close_at_faces(options.materials.empty() ? input : selected, std::ceil(ind.band + 3 * ind.smoothing_sigma) + 1);
   using clock = std::chrono::steady_clock;
   MeshResult result;
   MeshReport& rep = result.report;
+  for (int a = 0; a < 3; ++a) rep.face_padding[a] = (volume.dims[a] - input.dims[a]) / 2;
   auto t = clock::now();
   const int stage_count = options.only_surfaces ? 6 : 7;
   int stage_index = 0;
@@ -79,10 +117,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   const fields::Grid grid = fields::grid_of(volume);
   const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
   {
-    char d[160];
-    std::snprintf(d, sizeof d, "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g",
+    char d[256];
+    std::snprintf(d, sizeof d, "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g%s",
                   F.report.interfaces, F.report.triple_curves, F.report.quadruple_points, F.report.sizing.h_min,
-                  F.report.sizing.h_max);
+                  F.report.sizing.h_max, rep.face_padding[0] > 0 ? "; labels on the volume's faces: closed by label 0 outside" : "");
     stage_done(d);
   }
   const auto& labels = F.fields.labels;

@@ -96,6 +96,37 @@ TEST_CASE("other synthetic shapes: sphere, slabs, shells keep their thin layers"
   CHECK_THROWS(parse_synth_shape("cube"));
 }
 
+TEST_CASE("head phantom: the seed paper's dims at size 250, four tissues in anatomical order, neck at the bottom face") {
+  SynthOptions o;
+  o.shape = parse_synth_shape("head");
+  o.size = 250;
+  const SynthVolume big = make_synth_volume(o);
+  CHECK(big.volume.dims == std::array<int64_t, 3>{199, 250, 249});
+  o.size = 80;
+  CHECK(make_synth_volume(o).volume.dims == std::array<int64_t, 3>{64, 80, 80});
+  // The layers are a few voxels thick at full size only (CSF 2.5 voxels over the gyri).
+  const SynthVolume& s = big;
+  const VolumeInfo info = summarize(s.volume);
+  REQUIRE(info.labels.size() == 5);
+  CHECK(info.labels[0].neighbours == std::vector<uint16_t>{1});        // air touches only the scalp and neck
+  CHECK(info.labels[1].neighbours == std::vector<uint16_t>{0, 2, 3});  // the CSF sheath leaves through the neck
+  CHECK(info.labels[2].neighbours == std::vector<uint16_t>{1, 3});     // skull between scalp and CSF
+  CHECK(info.labels[3].neighbours == std::vector<uint16_t>{1, 2, 4});
+  CHECK(info.labels[4].neighbours == std::vector<uint16_t>{3});        // the brain floats in CSF
+  // Neck, sheath and brainstem reach the bottom face; the top of the head stays inside the volume.
+  std::set<uint16_t> bottom, top;
+  for (int64_t j = 0; j < s.volume.dims[1]; ++j)
+    for (int64_t i = 0; i < s.volume.dims[0]; ++i) {
+      bottom.insert(s.volume.labels[s.volume.index(i, j, 0)]);
+      top.insert(s.volume.labels[s.volume.index(i, j, s.volume.dims[2] - 1)]);
+    }
+  CHECK(bottom == std::set<uint16_t>{0, 1, 3, 4});
+  CHECK(top == std::set<uint16_t>{0});
+  // The brain is the largest tissue.
+  CHECK(info.labels[4].voxels > info.labels[1].voxels);
+  CHECK(info.labels[4].voxels > info.labels[2].voxels);
+}
+
 TEST_CASE("bundled wedge ball asset: 5 labels, right neighbours, same as the generator, junction JSON") {
   const std::string dir = std::string(CPMESH_SOURCE_DIR) + "/assets/";
   const LabelVolume v = read_label_volume(dir + "wedge_ball_48.nrrd");

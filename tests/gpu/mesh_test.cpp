@@ -338,3 +338,61 @@ TEST_CASE("materials: keep, merge and drop labels; a missing label is named") {
     CHECK(what.find("0,1,2,3") != std::string::npos);
   }
 }
+
+TEST_CASE("close_at_faces: label 0 outside the volume; padding only where another label lies on a face") {
+  io::LabelVolume v;
+  v.dims = {3, 2, 2};
+  v.spacing = {1, 2, 0.5};
+  v.origin = {10, 20, 30};
+  v.labels.assign(12, 0);
+  CHECK(mesh::close_at_faces(v, 3).dims == v.dims);  // all 0: nothing to close
+  v.labels[v.index(2, 1, 1)] = 7;
+  const auto p = mesh::close_at_faces(v, 3);
+  // 3 voxels of the smallest spacing (0.5): 1.5 physical, so 2 voxels along x, 1 along y, 3 along z.
+  CHECK(p.dims == std::array<int64_t, 3>{3 + 4, 2 + 2, 2 + 6});
+  CHECK(p.origin == std::array<double, 3>{8, 18, 28.5});
+  CHECK(p.spacing == v.spacing);
+  CHECK(std::count(p.labels.begin(), p.labels.end(), uint16_t(7)) == 1);
+  CHECK(p.labels[p.index(2 + 2, 1 + 1, 1 + 3)] == 7);
+  CHECK(p.position(2 + 2, 1 + 1, 1 + 3) == v.position(2, 1, 1));  // physical positions stay
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "a ball cut by the volume's bottom face is closed there by a flat cap (outside is label 0)") {
+  // Ball of radius 9 centred 3 voxels above the bottom voxel centres: the face (z = -0.5) cuts it in a disk.
+  const int n = 28;
+  const glm::dvec3 c(13.6, 13.3, 3.0);
+  const double R = 9;
+  io::LabelVolume v;
+  v.dims = {n, n, n};
+  v.labels.assign(size_t(n) * n * n, 0);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) v.labels[v.index(i, j, k)] = glm::length(glm::dvec3(i, j, k) - c) < R ? 1 : 0;
+  const auto r = mesh::mesh_volume(ctx, v);
+  const auto& rep = r.report;
+  CHECK(rep.face_padding[2] > 0);
+  CHECK(rep.interfaces_manifold == 1);
+  CHECK(rep.materials_closed == 2);
+  CHECK(rep.crossing_triangles == 0);
+  CHECK(rep.volume.tets > 0);
+  CHECK(rep.volume_error.empty());
+  CHECK(rep.surface.mean_radius_ratio > 0.9);
+  // Distance of every vertex to the cut ball's boundary: the sphere above the face, the disk on it.
+  const double rim = std::sqrt(R * R - (c.z + 0.5) * (c.z + 0.5));
+  double worst = 0, worst_away = 0;
+  size_t on_cap = 0;
+  for (const auto& a : r.surfaces.vertices) {
+    const glm::dvec3 p = vec(a);
+    const double radial = std::hypot(p.x - c.x, p.y - c.y);
+    const double d_sphere = p.z >= -0.5 ? std::abs(glm::length(p - c) - R) : 1e9;
+    const double d_disk = radial <= rim ? std::abs(p.z + 0.5) : std::hypot(radial - rim, p.z + 0.5);
+    const double d = std::min(d_sphere, d_disk);
+    worst = std::max(worst, d);
+    if (std::hypot(radial - rim, p.z + 0.5) > 2.5) worst_away = std::max(worst_away, d);
+    on_cap += radial < rim - 2.5 && std::abs(p.z + 0.5) < 0.5;
+  }
+  MESSAGE("cut ball: worst ", worst, ", away from the rim ", worst_away, ", cap vertices ", on_cap);
+  CHECK(worst_away < 0.5);
+  CHECK(worst < 0.6);  // measured 0.35: the rim is rounded by less than a voxel
+  CHECK(on_cap > 5);  // the cap is a surface, not a hole (measured 11)
+}

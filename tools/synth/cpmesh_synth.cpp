@@ -15,10 +15,10 @@ int main(int argc, char** argv) {
   SynthOptions o;
   std::vector<double> spacing;
   bool raw = false;
-  app.add_option("shape", shape, "sphere, wedge-ball, slabs or shells")
+  app.add_option("shape", shape, "sphere, wedge-ball, slabs, shells or head")
       ->required()
-      ->check(CLI::IsMember({"sphere", "wedge-ball", "slabs", "shells"}));
-  app.add_option("-n,--size", o.size, "Voxels along each axis")->check(CLI::Range(4, 2048))->capture_default_str();
+      ->check(CLI::IsMember({"sphere", "wedge-ball", "slabs", "shells", "head"}));
+  app.add_option("-n,--size", o.size, "Voxels along each axis (head: along y; x and z are 199/250 and 249/250 of it)")->check(CLI::Range(4, 2048))->capture_default_str();
   app.add_option("--spacing", spacing, "Voxel spacing sx,sy,sz (physical units)")->delimiter(',')->expected(3);
   app.add_option("--radius", o.radius, "Outer radius in voxels (default: 0.35 n sphere, 50/128 n wedge ball, 0.45 n shells)")
       ->check(CLI::PositiveNumber);
@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
     const SynthVolume s = make_synth_volume(o);
     write_nrrd(output, s.volume, !raw);
     if (!junctions.empty()) write_junctions_json(junctions, s);
-    std::cout << "wrote " << output << " (" << shape << ", " << o.size << "^3)";
+    const auto& d = s.volume.dims;
+    std::cout << "wrote " << output << " (" << shape << ", " << d[0] << " x " << d[1] << " x " << d[2] << ")";
     if (!junctions.empty())
       std::cout << " and " << junctions << " (" << s.junctions.triple_curves.size() << " triple curves, "
                 << s.junctions.quadruple_points.size() << " quadruple points)";
