@@ -58,10 +58,14 @@ template <class Start>
 void run_scaling(gpu::Context& ctx, fields::FieldsResult& F, std::vector<uint32_t> counts, int iterations, float theta,
                  Start&& sphere_start) {
   std::sort(counts.begin(), counts.end());
+  // The octree is rebuilt (sort and tree) once every rebuild_every steps and refitted in between, so a run of a
+  // multiple of rebuild_every steps times the rebuild's share per iteration; fewer would time none of it.
+  const int every = std::max(particles::AdvectionOptions{}.rebuild_every, 1);
+  iterations = (std::max(iterations, 1) + every - 1) / every * every;
   const char* stages[] = {"sort", "tree", "walk", "advect", "other"};
-  std::printf("\nScaling on %s: Barnes-Hut (theta %.2f) on the sphere, %d iterations per count; ms per iteration, "
-              "device memory of the particle system\n",
-              ctx.info().name.c_str(), double(theta), iterations);
+  std::printf("\nScaling on %s: Barnes-Hut (theta %.2f) on the sphere, %d iterations per count (octree rebuilt every "
+              "%d); ms per iteration, device memory of the particle system\n",
+              ctx.info().name.c_str(), double(theta), iterations, every);
   std::printf("%10s %10s %9s %9s %9s %9s %9s %11s %12s\n", "particles", "ms/iter", "sort", "tree", "walk", "advect",
               "other", "device MiB", "ns/particle");
   std::vector<double> xs, total;
