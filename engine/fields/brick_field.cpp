@@ -73,9 +73,13 @@ double BrickField::sample_cubic(const glm::dvec3& p, glm::dvec3* gradient) const
 void BrickField::sample_cubic_many(const BrickField* const* fields, int count, const glm::dvec3& p, double* values,
                                    glm::dvec3* gradients) {
   const BrickField& f0 = *fields[0];
-  const glm::dvec3 fl = glm::floor(p);
+  // Far outside the grid every sample is clamped to its face anyway; clamping p first keeps the int conversion below
+  // defined (a NaN becomes the grid's corner rather than undefined behaviour and a wild read).
+  glm::dvec3 q;
+  for (int a = 0; a < 3; ++a) q[a] = std::isfinite(p[a]) ? std::clamp(p[a], -2.0, double(f0.grid_.dims[a]) + 1.0) : -2.0;
+  const glm::dvec3 fl = glm::floor(q);
   const glm::ivec3 base(fl);
-  const glm::dvec3 t = p - fl;
+  const glm::dvec3 t = q - fl;
   double wx[4], wy[4], wz[4], dx[4], dy[4], dz[4];
   catmull_rom(t.x, wx, dx);
   catmull_rom(t.y, wy, dy);

@@ -39,6 +39,7 @@ bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int it
             glm::dvec3* grad_out = nullptr) {
   const double max_step = F.grid.min_spacing();
   for (int it = 0; it < iterations; ++it) {
+    if (!std::isfinite(x.x + x.y + x.z)) return false;
     double f[4];
     glm::dvec3 grad[4];
     sample_feature_fields(F, m, k + 1, x, f, grad);
@@ -472,7 +473,8 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
     // gradients are taken at x (within its tolerance).
     const glm::dvec3 next = foot(x, g);
     // A foot point that moves less than a thousandth of a voxel is found: the embedding's accuracy is a hundredth.
-    if (glm::length((next - x) / F.grid.spacing) < 1e-3) break;
+    // Parallel gradients (a curve's two interfaces tangent to each other) leave no tangent: keep x.
+    if (!std::isfinite(next.x + next.y + next.z) || glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
     if (!newton(F, m, k, y, newton_iterations, tol, g)) break;  // keep the last converged point
     x = y;
@@ -500,6 +502,12 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   std::set<MaterialSet> sets;
   std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
   std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
+  // Where each material set was found, in bins of kBin^3 voxels (see step 3).
+  constexpr int kBin = 4;
+  const glm::ivec3 bins = (grid.dims + kBin - 1) / kBin;
+  const size_t bin_count = size_t(bins.x) * size_t(bins.y) * size_t(bins.z);
+  auto bin_of = [&](int i, int j, int kk) { return (size_t(kk / kBin) * size_t(bins.y) + size_t(j / kBin)) * size_t(bins.x) + size_t(i / kBin); };
+  std::map<MaterialSet, std::vector<uint8_t>> found_in;
   std::vector<uint16_t> label_index(grid.voxel_count());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v < r.end(); ++v) {
@@ -524,6 +532,9 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
         for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
           sets.insert(s);
+          auto& found = found_in[s];
+          if (found.empty()) found.resize(bin_count, 0);
+          found[bin_of(i, j, kk)] = 1;
           if (bits == 4) quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
           if (bits == 3) curve_cells[s].push_back(glm::ivec3(i, j, kk));
         });
@@ -556,7 +567,32 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   //    band + stencil reach of it (f_m > -reach), so WENO4 stencils around any point within `band` are complete:
   //    a stencil reaches 2 fine steps beyond the query per axis, and a cell's fine points lie up to sub - 1 fine
   //    steps from its centre; both along a diagonal at worst.
+  //    And when the feature was found (step 1) within 2 reach + 1 voxel of it. A point within reach of every
+  //    material of a feature lies that close to where they meet, unless another material separates them: across a
+  //    thin layer (the CSF between skull and brain) every voxel is within reach of both sides, and where the sides
+  //    touch somewhere else the band of their interface and curves would fill the whole layer, with Newton failing
+  //    at every fine point there (no such interface nearby), 14 tries of 30 steps each.
   const double reach = options.band * h + std::sqrt(3.0) * double(options.sub + 1) / options.sub * h;
+  // Voxels i and i + d lie at most floor((d + kBin - 1) / kBin) bins apart.
+  const int near_bins = int(std::ceil((2.0 * reach / h + 1.0 + kBin - 1) / kBin));
+  std::vector<std::vector<uint8_t>> near_found(E.features.size());
+  tbb::parallel_for(size_t(0), E.features.size(), [&](size_t f) {
+    std::vector<uint8_t> a = found_in.at(E.features[f].materials), b(bin_count);
+    // Separable dilation by near_bins bins along x, y, then z.
+    const std::array<size_t, 3> stride = {1, size_t(bins.x), size_t(bins.x) * size_t(bins.y)};
+    for (int axis = 0; axis < 3; ++axis) {
+      const int len = bins[axis];
+      for (size_t v = 0; v < bin_count; ++v) {
+        const int pos = int((v / stride[size_t(axis)]) % size_t(len));
+        uint8_t any = 0;
+        for (int d = std::max(0, pos - near_bins); d <= std::min(len - 1, pos + near_bins) && !any; ++d)
+          any = a[v + (size_t(d) - size_t(pos)) * stride[size_t(axis)]];
+        b[v] = any;
+      }
+      std::swap(a, b);
+    }
+    near_found[f] = std::move(a);
+  });
   if (reach >= 0.95 * F.band)
     throw std::invalid_argument("closest point embedding: band " + std::to_string(options.band) + " voxels plus the " +
                                 "WENO4 stencil reach needs indicator fields stored " + std::to_string(reach / h) +
@@ -575,7 +611,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
           for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
             if (curves_only && bits < 3) return;
             const auto it = feature_of.find(s);
-            if (it != feature_of.end()) out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
+            if (it != feature_of.end() && near_found[it->second][bin_of(i, j, kk)])
+              out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
           });
         }
   });

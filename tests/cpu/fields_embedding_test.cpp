@@ -343,3 +343,39 @@ TEST_CASE("junction correction: no offsets where thin layers make the junctions"
         for (int i = 0; i < wb.grid.dims.x; ++i) moved = std::max(moved, double(std::fabs(o.at(i, j, k))));
   CHECK(moved > 0.1);
 }
+
+TEST_CASE("embedding bands stay near where their materials meet: none across a thin layer that separates them") {
+  // Materials 1 (below) and 2 (above) separated by a 2-voxel layer of 3, except through a hole of radius 3 around
+  // (10, 10), where 1 and 2 touch, in a 56 x 56 layer. Every voxel of the layer is within reach of both 1 and 2, but their interface
+  // exists only at the hole: its band must not fill the layer (Newton failed at every fine point there).
+  io::LabelVolume v;
+  v.dims = {56, 56, 20};
+  v.labels.resize(size_t(v.voxel_count()));
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 56; ++j)
+      for (int i = 0; i < 56; ++i) {
+        const bool hole = (i - 10.2) * (i - 10.2) + (j - 9.7) * (j - 9.7) < 9;
+        v.labels[v.index(i, j, k)] = k < 9 ? 1 : k >= 11 ? 2 : hole ? (k < 10 ? 1 : 2) : 3;
+      }
+  const Grid grid = grid_of(v);
+  const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
+  const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
+  const int f12 = E.feature_index(FeatureKind::interface, {0, 1, 0xffff, 0xffff});  // labels 1, 2 -> indices 0, 1
+  REQUIRE(f12 >= 0);
+  size_t blocks = 0, far = 0, layer = 0;
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == ClosestPointEmbedding::kEmpty) continue;
+    const glm::ivec3 c = grid.voxel(size_t(E.keys[slot] >> 16));
+    if (int(E.keys[slot] & 0xffff) == f12) {
+      ++blocks;
+      // The hole's voxels reach x, y = 13; bands extend 2 reach + 1 voxel (7.7) rounded up to 4-voxel bins.
+      far += std::max(c.x, c.y) > 28;
+    } else if (E.features[E.keys[slot] & 0xffff].kind == FeatureKind::interface) {
+      ++layer;
+    }
+  }
+  MESSAGE(blocks, " blocks of the 1/2 interface, ", far, " far from the hole; ", layer, " of the others");
+  CHECK(blocks > 0);
+  CHECK(far == 0);
+  CHECK(layer > 10 * blocks / 4);  // the layer's own interfaces keep their whole bands
+}
