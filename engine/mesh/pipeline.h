@@ -52,13 +52,6 @@ struct MeshOptions {
 // The volume with options.materials applied (a copy); throws std::invalid_argument naming a missing label.
 io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups);
 
-// Outside the volume counts as the background, label 0, as in CGAL's labeled image domain: a material that touches a
-// face of the volume is closed there, so every interface is a closed or curve-bounded surface and every material can
-// be tet-meshed (a neck cut by the scan's last slice gets a cap). Returns the volume padded by `width` voxels of the
-// smallest spacing (rounded up per axis) of label 0 on every side, origin moved so physical positions stay; or the
-// volume unchanged when only 0 lies on its faces.
-io::LabelVolume close_at_faces(const io::LabelVolume& volume, double width);
-
 struct InterfaceReport {
   std::array<uint16_t, 2> labels{};
   TriangleStats quality;
@@ -74,7 +67,7 @@ struct MaterialReport {
 
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
-  std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (close_at_faces; 0: none)
+  std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
   int iterations = 0;

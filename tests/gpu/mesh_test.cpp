@@ -345,9 +345,9 @@ TEST_CASE("close_at_faces: label 0 outside the volume; padding only where anothe
   v.spacing = {1, 2, 0.5};
   v.origin = {10, 20, 30};
   v.labels.assign(12, 0);
-  CHECK(mesh::close_at_faces(v, 3).dims == v.dims);  // all 0: nothing to close
+  CHECK(fields::close_at_faces(v, 3).dims == v.dims);  // all 0: nothing to close
   v.labels[v.index(2, 1, 1)] = 7;
-  const auto p = mesh::close_at_faces(v, 3);
+  const auto p = fields::close_at_faces(v, 3);
   // 3 voxels of the smallest spacing (0.5): 1.5 physical, so 2 voxels along x, 1 along y, 3 along z.
   CHECK(p.dims == std::array<int64_t, 3>{3 + 4, 2 + 2, 2 + 6});
   CHECK(p.origin == std::array<double, 3>{8, 18, 28.5});

@@ -93,7 +93,9 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
   sub->add_flag("--no-volumes", o->no_volumes, "Skip the per-material NRRD volumes (large for big inputs)");
   return {sub, [o] {
             Progress progress(5);
-            const io::LabelVolume volume = progress.stage("read volume", [&] { return read_volume_input(o->input); });
+            const io::LabelVolume volume = fields::close_at_faces(
+                progress.stage("read volume", [&] { return read_volume_input(o->input); }),
+                fields::face_padding(o->fields.indicator));
             const fields::Grid grid = fields::grid_of(volume);
             auto r = progress.stage("fields: indicator, embedding, sizing",
                                     [&] { return fields::build_fields(grid, volume.labels.data(), o->fields); });
