@@ -7,7 +7,6 @@
 #include <map>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -499,10 +498,9 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   // 1. Features: material sets meeting in a 2x2x2 group of voxels (the dual cell around a grid corner), judged by the
   //    argmax of the fields at the voxel centres (which is each voxel's label). Quadruple-point candidates keep the
   //    dual cell's centre as a Newton start.
-  std::set<MaterialSet> sets;
   std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
   std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
-  // Where each material set was found, in bins of kBin^3 voxels (see step 3).
+  // Every material set found, and where, in bins of kBin^3 voxels (see step 3).
   constexpr int kBin = 4;
   const glm::ivec3 bins = (grid.dims + kBin - 1) / kBin;
   const size_t bin_count = size_t(bins.x) * size_t(bins.y) * size_t(bins.z);
@@ -531,7 +529,6 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         const int n = grid.corner_labels(i, j, kk, [&](size_t v) { return label_index[v]; }, present);
         // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
         for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
-          sets.insert(s);
           auto& found = found_in[s];
           if (found.empty()) found.resize(bin_count, 0);
           found[bin_of(i, j, kk)] = 1;
@@ -540,7 +537,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         });
       }
   for (size_t count : {2u, 3u, 4u})
-    for (const auto& s : sets) {
+    for (const auto& [s, where] : found_in) {
       const size_t c = size_t(std::count_if(s.begin(), s.end(), [](uint16_t x) { return x != kNone; }));
       if (c == count) E.features.push_back(Feature{kind_of(c), s});
     }

@@ -4,7 +4,7 @@
 
 namespace cpmesh::fields {
 
-io::LabelVolume close_at_faces(const io::LabelVolume& volume, double width) {
+io::LabelVolume close_at_faces(io::LabelVolume volume, double width) {
   const auto& d = volume.dims;
   bool open = false;
   for (int64_t k = 0; k < d[2] && !open; ++k)

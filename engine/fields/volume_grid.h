@@ -18,7 +18,7 @@ inline Grid grid_of(const io::VolumeGeometry& v) {
 // be tet-meshed (a neck cut by the scan's last slice gets a cap). Returns the volume padded by `width` voxels of the
 // smallest spacing (rounded up per axis) of label 0 on every side, origin moved so physical positions stay; or the
 // volume unchanged when only 0 lies on its faces.
-io::LabelVolume close_at_faces(const io::LabelVolume& volume, double width);
+io::LabelVolume close_at_faces(io::LabelVolume volume, double width);  // by value: a closed volume is moved through
 // The padding that keeps a cap's indicator band and smoothing inside the padded grid, in voxels.
 inline double face_padding(const IndicatorOptions& o) { return std::ceil(o.band + 3 * o.smoothing_sigma) + 1; }
 

@@ -346,8 +346,9 @@ TEST_CASE("junction correction: no offsets where thin layers make the junctions"
 
 TEST_CASE("embedding bands stay near where their materials meet: none across a thin layer that separates them") {
   // Materials 1 (below) and 2 (above) separated by a 2-voxel layer of 3, except through a hole of radius 3 around
-  // (10, 10), where 1 and 2 touch, in a 56 x 56 layer. Every voxel of the layer is within reach of both 1 and 2, but their interface
-  // exists only at the hole: its band must not fill the layer (Newton failed at every fine point there).
+  // (10, 10), where 1 and 2 touch, in a 56 x 56 layer. Every voxel of the layer is within reach of both 1 and 2, but
+  // their interface exists only at the hole: its band must not fill the layer (Newton failed at every fine point
+  // there).
   io::LabelVolume v;
   v.dims = {56, 56, 20};
   v.labels.resize(size_t(v.voxel_count()));
