@@ -35,7 +35,7 @@ void sample_feature_fields(const IndicatorFields& F, const int* m, int count, co
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
 // On success, grad_out (optional, k + 1 entries) receives the gradients at the last sample, within tol of x.
 bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol,
-            glm::dvec3* grad_out = nullptr) {
+            glm::dvec3* grad_out, bool give_up_stagnating) {
   const double max_step = F.grid.min_spacing();
   constexpr int kStagnationWindow = 4;
   constexpr double kStagnationRatio = 0.75;
@@ -53,11 +53,12 @@ bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int it
       J[a] = (grad[0] - grad[a + 1]) / F.grid.spacing;
       gmax = std::max(gmax, std::fabs(g[a]));
     }
-    // Stagnation: a run that has not cut its residual by a quarter over the last four steps is circling (two sheets'
-    // constraints with no common zero nearby: a curve's band across a thin layer) and would spend all its
-    // iterations there; converging runs shrink the residual faster than that, clamped walks included.
+    // Stagnation (give_up_stagnating): a run that has not cut its residual by a quarter over the last four steps is
+    // circling (two sheets' constraints with no common zero nearby: a curve's band across a thin layer) and would
+    // spend all its iterations there; converging runs shrink the residual faster than that, clamped walks included.
     double& four_back = residual[it % kStagnationWindow];
-    if (it >= kStagnationWindow && gmax > 100.0 * tol && gmax > kStagnationRatio * four_back) return false;
+    if (give_up_stagnating && it >= kStagnationWindow && gmax > 100.0 * tol && gmax > kStagnationRatio * four_back)
+      return false;
     four_back = gmax;
     glm::dvec3 step(0.0);
     if (k == 1) {
@@ -441,7 +442,7 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 }
 
 bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
-                        int newton_iterations, int rounds, const glm::dvec3* start) {
+                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating) {
   int m[4];
   const int count = materials_of(feature, m);
   const int k = count - 1;
@@ -470,10 +471,10 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
       if (std::isfinite(next.x + next.y + next.z)) x = next;
     }
   }
-  bool ok = newton(F, m, k, x, newton_iterations, tol, g);
+  bool ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating);
   if (!ok && start) {  // the foot led Newton astray (a field's edge, another sheet): from the start itself
     x = *start;
-    ok = newton(F, m, k, x, newton_iterations, tol, g);
+    ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating);
   }
   for (int round = 1; ok && k < 3 && round < rounds; ++round) {
     // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
@@ -484,7 +485,7 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
     // Parallel gradients (a curve's two interfaces tangent to each other) leave no tangent: keep x.
     if (!std::isfinite(next.x + next.y + next.z) || glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
-    if (!newton(F, m, k, y, newton_iterations, tol, g)) break;  // keep the last converged point
+    if (!newton(F, m, k, y, newton_iterations, tol, g, give_up_stagnating)) break;  // keep the last converged point
     x = y;
   }
   out = x;
@@ -628,12 +629,18 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
 
   // 5. Fine level: the closest point of every fine point of every block, by Newton projection on the smooth fields,
   //    restricted to the feature (bounding curves and points take over beyond them).
-  //    A block none of whose fine points lands on a feature is dropped: its material set meets in the labels (step
-  //    1) but not in the smooth fields (a layer one voxel thin across a 2x2x2 group, kept whole by the smoothing
-  //    and tightening), so no particle of it can be there, and what Newton left in it is on no feature. The nudged
-  //    starts below are tried by a block's first point, and by the others once one of them has landed: on the
-  //    100^3 head phantom 92% of the triple curves' fine points were in such blocks, each costing 14 failed Newton
-  //    runs (with the stagnation rule in newton(), the embedding took 23 s instead of 205 s on 2 cores).
+  //    Where a material set meets in the labels (step 1) but not in the smooth fields (a layer one voxel thin across
+  //    a 2x2x2 group, kept whole by the smoothing and tightening), Newton fails at every fine point of its band: 14
+  //    runs of 30 steps each. In the curve smoothing's embedding (curves_only) a run that stagnates gives up, the
+  //    nudged starts are tried by a block's first point and then only once one of its points has landed, and
+  //    blocks where no point landed are dropped (their points are on no curve, and they made every fit around them
+  //    fail). On the 100^3 head phantom (2 cores) that pass took a third of the 205 s embedding, with 92% of its
+  //    fine points in such blocks; the smoothing then measured 97,733 curve points and moved none, and measures
+  //    1,978 now and moves 36.
+  //    The full embedding keeps those blocks and their failed points, as before: on the 64^3 shells (1-voxel layers,
+  //    no true triple curve) the particles seeded on them sit in the thin layers and keep their two sides apart.
+  //    Dropping the blocks (or giving up early there, which moves the failed points) left 194-447 wrong faces
+  //    instead of 33 and made 2-4 interfaces non-manifold: the thin layers' meshing must be fixed before this can.
   const int sub = options.sub, per_block = sub * sub * sub;
   E.fine.resize(cells.size() * size_t(per_block));
   std::vector<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
@@ -652,7 +659,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         const glm::dvec3 warm = q > 0 ? glm::dvec3(glm::vec3(E.fine[b * size_t(per_block) + size_t(q - 1)])) : x0;
         // (Where that point failed, where its Newton stopped is still a better start than x0 on a medial surface.)
         const bool warm_ok = q > 0 && E.features[fid].kind != FeatureKind::quadruple_point;
-        const bool nudge = q == 0 || landed_in[b];
+        const bool nudge = !curves_only || q == 0 || landed_in[b];
         bool landed = false;  // cp is a converged projection onto `feature`, or its located quadruple point
         uint32_t feature = fid;
         // Restriction: at most two escalations (interface -> curve -> point).
@@ -671,14 +678,15 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
             break;
           }
           bool ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
-                                       level == 0 && warm_ok ? &warm : nullptr);
+                                       level == 0 && warm_ok ? &warm : nullptr, curves_only);
           // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
           // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
           // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
           for (int d = 0; !ok && nudge && d < 6; ++d) {
             glm::dvec3 nudged = x0;
             nudged[d / 2] += (d % 2 ? -1.0 : 1.0) * grid.spacing[d / 2] / 3.0;
-            ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged);
+            ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged,
+                                    curves_only);
           }
           landed = ok;
           int m[4];
@@ -713,7 +721,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   });
   size_t kept = 0;
   for (size_t b = 0; b < cells.size(); ++b) {
-    if (!landed_in[b]) continue;
+    if (!landed_in[b] && curves_only) continue;
     cells[kept] = cells[b];
     std::copy_n(E.fine.begin() + ptrdiff_t(b * size_t(per_block)), per_block, E.fine.begin() + ptrdiff_t(kept * size_t(per_block)));
     std::copy_n(owner.begin() + ptrdiff_t(b * size_t(per_block)), per_block, owner.begin() + ptrdiff_t(kept * size_t(per_block)));

@@ -168,6 +168,34 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     if (!m.empty()) buckets[fid] = PointBuckets(m.size(), [&](size_t i) { return position[m[i]]; }, kMaxFitCells * cell_size);
   });
 
+  // The averaging's neighbours (the interface blocks of the same interface in the 3x3x3 cells around, the block
+  // itself included), found once for all 2 x kAveragingPasses passes: counted, then listed.
+  std::vector<uint32_t> neighbours_from(blocks + 1, 0), neighbours;
+  auto for_each_neighbour = [&](size_t b, auto&& visit) {
+    const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
+    const uint32_t fid = uint32_t(block_key[b] & 0xffff);
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
+          if (!grid.inside(w.x, w.y, w.z)) continue;
+          const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
+          if (nb >= 0 && is_interface[size_t(nb)]) visit(uint32_t(nb));
+        }
+  };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b)
+      if (is_interface[b]) for_each_neighbour(b, [&](uint32_t) { ++neighbours_from[b + 1]; });
+  });
+  for (size_t b = 0; b < blocks; ++b) neighbours_from[b + 1] += neighbours_from[b];
+  neighbours.resize(neighbours_from[blocks]);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      uint32_t next = neighbours_from[b];
+      if (is_interface[b]) for_each_neighbour(b, [&](uint32_t nb) { neighbours[next++] = nb; });
+    }
+  });
+
   // The second fundamental form at each interface block, fitted to the points of its interface within `window`
   // whose normals agree with its own (the far side of a thin part is no part of this patch), then averaged over the
   // 3x3x3 neighbouring blocks of the same interface kAveragingPasses times: the forms still carry noise, and grading
@@ -195,21 +223,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t b = r.begin(); b < r.end(); ++b) {
           if (!is_interface[b]) continue;
-          const glm::ivec3 v = grid.voxel(block_key[b] >> 16);
-          const uint32_t fid = uint32_t(block_key[b] & 0xffff);
           glm::dmat3 sum(0.0);
-          int n = 0;
-          for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-              for (int dx = -1; dx <= 1; ++dx) {
-                const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
-                if (!grid.inside(w.x, w.y, w.z)) continue;
-                const int64_t nb = E.find_block(grid.index(w.x, w.y, w.z), fid);
-                if (nb < 0 || !is_interface[size_t(nb)]) continue;
-                sum += shape[size_t(nb)];
-                ++n;
-              }
-          averaged[b] = sum / double(n);
+          for (uint32_t i = neighbours_from[b]; i < neighbours_from[b + 1]; ++i) sum += shape[neighbours[i]];
+          averaged[b] = sum / double(neighbours_from[b + 1] - neighbours_from[b]);
         }
       });
       shape.swap(averaged);
