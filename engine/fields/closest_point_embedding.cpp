@@ -719,17 +719,19 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
       }
     }
   });
-  size_t kept = 0;
-  for (size_t b = 0; b < cells.size(); ++b) {
-    if (!landed_in[b] && curves_only) continue;
-    cells[kept] = cells[b];
-    std::copy_n(E.fine.begin() + ptrdiff_t(b * size_t(per_block)), per_block, E.fine.begin() + ptrdiff_t(kept * size_t(per_block)));
-    std::copy_n(owner.begin() + ptrdiff_t(b * size_t(per_block)), per_block, owner.begin() + ptrdiff_t(kept * size_t(per_block)));
-    ++kept;
+  if (curves_only) {  // drop the blocks where no point landed (above)
+    size_t kept = 0;
+    for (size_t b = 0; b < cells.size(); ++b) {
+      if (!landed_in[b]) continue;
+      cells[kept] = cells[b];
+      std::copy_n(E.fine.begin() + ptrdiff_t(b * size_t(per_block)), per_block, E.fine.begin() + ptrdiff_t(kept * size_t(per_block)));
+      std::copy_n(owner.begin() + ptrdiff_t(b * size_t(per_block)), per_block, owner.begin() + ptrdiff_t(kept * size_t(per_block)));
+      ++kept;
+    }
+    cells.resize(kept);
+    E.fine.resize(kept * size_t(per_block));
+    owner.resize(E.fine.size());
   }
-  cells.resize(kept);
-  E.fine.resize(kept * size_t(per_block));
-  owner.resize(E.fine.size());
 
   // 6. Hash table (build_hash_table): every key within kMaxProbes of its home slot.
   build_hash_table(cells, ClosestPointEmbedding::kMaxProbes, E.keys, E.blocks);
