@@ -349,15 +349,10 @@ TEST_CASE("embedding bands stay near where their materials meet: none across a t
   // (10, 10), where 1 and 2 touch, in a 56 x 56 layer. Every voxel of the layer is within reach of both 1 and 2, but
   // their interface exists only at the hole: its band must not fill the layer (Newton failed at every fine point
   // there).
-  io::LabelVolume v;
-  v.dims = {56, 56, 20};
-  v.labels.resize(size_t(v.voxel_count()));
-  for (int k = 0; k < 20; ++k)
-    for (int j = 0; j < 56; ++j)
-      for (int i = 0; i < 56; ++i) {
-        const bool hole = (i - 10.2) * (i - 10.2) + (j - 9.7) * (j - 9.7) < 9;
-        v.labels[v.index(i, j, k)] = k < 9 ? 1 : k >= 11 ? 2 : hole ? (k < 10 ? 1 : 2) : 3;
-      }
+  const io::LabelVolume v = test::label_volume(56, 56, 20, [](int i, int j, int k) {
+    const bool hole = (i - 10.2) * (i - 10.2) + (j - 9.7) * (j - 9.7) < 9;
+    return k < 9 ? 1 : k >= 11 ? 2 : hole ? (k < 10 ? 1 : 2) : 3;
+  });
   const Grid grid = grid_of(v);
   const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
   const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
@@ -387,15 +382,10 @@ TEST_CASE("curve smoothing: a triple curve that meets only in the labels gives n
   // 2 whole (it is 1.15 voxels thick), so that curve does not exist and Newton fails at every fine point of its band.
   // The curve smoothing must measure no points there (it measured 15,603, all on no curve, before its embedding
   // dropped the blocks where no point landed).
-  io::LabelVolume v;
-  v.dims = {24, 24, 24};
-  v.labels.resize(size_t(v.voxel_count()));
-  for (int k = 0; k < 24; ++k)
-    for (int j = 0; j < 24; ++j)
-      for (int i = 0; i < 24; ++i) {
-        const int s = i + j + k;
-        v.labels[v.index(i, j, k)] = s < 29 ? 1 : s <= 30 ? 2 : 3;
-      }
+  const io::LabelVolume v = test::label_volume(24, 24, 24, [](int i, int j, int k) {
+    const int s = i + j + k;
+    return s < 29 ? 1 : s <= 30 ? 2 : 3;
+  });
   const Grid grid = grid_of(v);
   const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
   const auto E = build_closest_point_embedding(F, EmbeddingOptions{});

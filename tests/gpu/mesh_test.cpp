@@ -362,12 +362,8 @@ TEST_CASE_FIXTURE(GpuFixture, "a ball cut by the volume's bottom face is closed 
   const int n = 28;
   const glm::dvec3 c(13.6, 13.3, 3.0);
   const double R = 9;
-  io::LabelVolume v;
-  v.dims = {n, n, n};
-  v.labels.assign(size_t(n) * n * n, 0);
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) v.labels[v.index(i, j, k)] = glm::length(glm::dvec3(i, j, k) - c) < R ? 1 : 0;
+  const io::LabelVolume v =
+      test::label_volume(n, n, n, [&](int i, int j, int k) { return glm::length(glm::dvec3(i, j, k) - c) < R ? 1 : 0; });
   const auto r = mesh::mesh_volume(ctx, v);
   const auto& rep = r.report;
   CHECK(rep.face_padding[2] > 0);
