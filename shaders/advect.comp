@@ -5,26 +5,27 @@
 // (interfaces) or all but its tangential part (triple curves) to first order: the closest point method's tangent
 // projection. Quadruple points never move. A particle whose moved position leaves its feature's band stays put and
 // is counted in `lost`. The sizing at the new position (the lookup's w) becomes the particle's h.
-// Bindings: 0-5 cp_keys, cp_blocks, cp_fine0..3 (fields::GpuEmbedding); 6 particles vec4[n] (xyz, h; updated);
-//           7 features uint[n]; 8 feature_kinds uint[] (0 point, 1 curve, 2 interface); 9 walk result vec4[n]
-//           (gradient, E); 10 energy float[n] (E_i copied for the reduction); 11 lost uint[1] (atomic counter).
+// Bindings: 0-6 cp_keys, cp_tiles, cp_cells, cp_fine0..3 (fields::GpuEmbedding); 7 particles vec4[n] (xyz, h;
+//           updated); 8 features uint[n]; 9 feature_kinds uint[] (0 point, 1 curve, 2 interface); 10 walk result
+//           vec4[n] (gradient, E); 11 energy float[n] (E_i copied for the reduction); 12 lost uint[1] (atomic counter).
 // Push: embedding geometry, n, alpha, max_move. Dispatch: n threads, 64 per workgroup. Reference: ref::advect.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Keys { uvec2 cp_keys[]; };
-layout(std430, binding = 1) readonly buffer Blocks { uint cp_blocks[]; };
-layout(std430, binding = 2) readonly buffer Fine0 { vec4 cp_fine0[]; };
-layout(std430, binding = 3) readonly buffer Fine1 { vec4 cp_fine1[]; };
-layout(std430, binding = 4) readonly buffer Fine2 { vec4 cp_fine2[]; };
-layout(std430, binding = 5) readonly buffer Fine3 { vec4 cp_fine3[]; };
-layout(std430, binding = 6) buffer Particles { vec4 particles[]; };
-layout(std430, binding = 7) readonly buffer Features { uint features[]; };
-layout(std430, binding = 8) readonly buffer FeatureKinds { uint feature_kinds[]; };
-layout(std430, binding = 9) readonly buffer WalkResult { vec4 walk[]; };
-layout(std430, binding = 10) writeonly buffer Energy { float energy[]; };
-layout(std430, binding = 11) buffer Lost { uint lost[]; };
+layout(std430, binding = 1) readonly buffer Tiles { uint cp_tiles[]; };
+layout(std430, binding = 2) readonly buffer Cells { uint cp_cells[]; };
+layout(std430, binding = 3) readonly buffer Fine0 { vec4 cp_fine0[]; };
+layout(std430, binding = 4) readonly buffer Fine1 { vec4 cp_fine1[]; };
+layout(std430, binding = 5) readonly buffer Fine2 { vec4 cp_fine2[]; };
+layout(std430, binding = 6) readonly buffer Fine3 { vec4 cp_fine3[]; };
+layout(std430, binding = 7) buffer Particles { vec4 particles[]; };
+layout(std430, binding = 8) readonly buffer Features { uint features[]; };
+layout(std430, binding = 9) readonly buffer FeatureKinds { uint feature_kinds[]; };
+layout(std430, binding = 10) readonly buffer WalkResult { vec4 walk[]; };
+layout(std430, binding = 11) writeonly buffer Energy { float energy[]; };
+layout(std430, binding = 12) buffer Lost { uint lost[]; };
 layout(push_constant) uniform Push {
   ivec4 dims_sub;
   vec4 spacing;

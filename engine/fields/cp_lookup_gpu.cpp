@@ -1,19 +1,75 @@
 #include "fields/cp_lookup_gpu.h"
 
 #include <algorithm>
+#include <numeric>
 
 #include "cpmesh/shaders.h"
 #include "gpu/describe.h"
 
 namespace cpmesh::fields {
 
+namespace {
+
+uint64_t tile_key(const glm::ivec3& tile, const glm::ivec3& tile_dims, uint32_t feature) {
+  return (uint64_t((size_t(tile.z) * size_t(tile_dims.y) + size_t(tile.y)) * size_t(tile_dims.x) + size_t(tile.x)) << 16) |
+         feature;
+}
+
+uint32_t cell_in_tile(const glm::ivec3& cell) {
+  const glm::ivec3 l = cell & ((1 << EmbeddingTiles::kShift) - 1);
+  return uint32_t((l.z << (2 * EmbeddingTiles::kShift)) | (l.y << EmbeddingTiles::kShift) | l.x);
+}
+
+}  // namespace
+
+EmbeddingTiles build_embedding_tiles(const ClosestPointEmbedding& E) {
+  EmbeddingTiles T;
+  const int size = 1 << EmbeddingTiles::kShift;
+  T.dims = (E.grid.dims + size - 1) / size;
+  struct Entry {
+    uint64_t key;
+    uint32_t cell, block;
+  };
+  std::vector<Entry> entries;
+  entries.reserve(E.block_count());
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == ClosestPointEmbedding::kEmpty) continue;
+    const uint32_t feature = uint32_t(E.keys[slot] & 0xffff);
+    const glm::ivec3 cell = E.grid.voxel(size_t(E.keys[slot] >> 16));
+    entries.push_back({tile_key(cell >> EmbeddingTiles::kShift, T.dims, feature), cell_in_tile(cell), E.blocks[slot]});
+  }
+  // Records in key order, so the table does not depend on the hash table's slot order.
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.key != b.key ? a.key < b.key : a.cell < b.cell;
+  });
+  std::vector<uint64_t> distinct;
+  for (const Entry& e : entries) {
+    if (distinct.empty() || distinct.back() != e.key) {
+      distinct.push_back(e.key);
+      T.cells.resize(T.cells.size() + EmbeddingTiles::kCells, EmbeddingTiles::kNoBlock);
+    }
+    T.cells[(distinct.size() - 1) * EmbeddingTiles::kCells + e.cell] = e.block;
+  }
+  build_hash_table(distinct, ClosestPointEmbedding::kMaxProbes, T.keys, T.tiles);
+  return T;
+}
+
+int64_t EmbeddingTiles::find_block(const glm::ivec3& cell, uint32_t feature) const {
+  const int64_t tile =
+      find_in_hash_table(keys, tiles, tile_key(cell >> kShift, dims, feature), ClosestPointEmbedding::kMaxProbes);
+  if (tile < 0) return -1;
+  const uint32_t block = cells[size_t(tile) * kCells + cell_in_tile(cell)];
+  return block == kNoBlock ? -1 : int64_t(block);
+}
+
 GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, uint64_t max_chunk_bytes)
-    : keys(ctx, E.keys, "embedding keys"),
-      blocks(ctx, E.blocks, "embedding blocks"),
-      dims(E.grid.dims),
-      sub(E.sub),
-      spacing(E.grid.spacing),
-      table_mask(uint32_t(E.keys.size() - 1)) {
+    : dims(E.grid.dims), sub(E.sub), spacing(E.grid.spacing) {
+  const EmbeddingTiles T = build_embedding_tiles(E);
+  tile_keys = gpu::Buffer<uint64_t>(ctx, T.keys, "embedding tile keys");
+  tiles = gpu::Buffer<uint32_t>(ctx, T.tiles, "embedding tiles");
+  tile_cells = gpu::Buffer<uint32_t>(ctx, T.cells.empty() ? std::vector<uint32_t>(1, EmbeddingTiles::kNoBlock) : T.cells,
+                                     "embedding tile cells");
+  table_mask = uint32_t(T.keys.size() - 1);
   const uint64_t block_bytes = uint64_t(E.sub * E.sub * E.sub) * sizeof(glm::vec4);
   const uint64_t limit = max_chunk_bytes ? max_chunk_bytes : ctx.info().max_storage_buffer_range;
   chunk_blocks = uint32_t(std::max<uint64_t>(1, limit / block_bytes));
@@ -45,7 +101,7 @@ void CpLookup::record(gpu::Sequence& seq, const GpuEmbedding& e, const gpu::Buff
     uint32_t n, table_mask, chunk_blocks;
   } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), n, e.table_mask, e.chunk_blocks};
   static_assert(sizeof(push) == 44);
-  seq.dispatch(kernel_, {e.keys, e.blocks, e.fine[0], e.fine[1], e.fine[2], e.fine[3], queries, results, valid}, push, n);
+  seq.dispatch(kernel_, {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], queries, results, valid}, push, n);
 }
 
 }  // namespace cpmesh::fields

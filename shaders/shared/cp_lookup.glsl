@@ -1,16 +1,18 @@
 // Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
 // Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader:
-//   buffers  cp_keys (uvec2[], the hash table's keys: low, high word), cp_blocks (uint[]), cp_fine0..3 (vec4[], the
-//            fine points split in chunks of CP_CHUNK_BLOCKS blocks: fields::GpuEmbedding)
+//   buffers  cp_keys (uvec2[], the tile hash table's keys: low, high word), cp_tiles (uint[], slot -> tile record),
+//            cp_cells (uint[], 64 per tile record: block or CP_EMPTY), cp_fine0..3 (vec4[], the fine points split in
+//            chunks of CP_CHUNK_BLOCKS blocks): fields::GpuEmbedding, fields::EmbeddingTiles
 //   and the values CP_DIMS (ivec3), CP_SUB (int), CP_SPACING (vec3), CP_MASK (uint, table size - 1),
 //   CP_CHUNK_BLOCKS (uint).
-// Loops: at most 64 cells x CP_MAX_PROBES probes (2048 iterations per call, far below lavapipe's limit), then the
-// 64 stencil points.
+// Loops: at most 8 tiles x CP_MAX_PROBES probes (256 iterations per call, far below lavapipe's limit), then at most
+// 64 cells and the 64 stencil points.
 #ifndef CPMESH_CP_LOOKUP_GLSL
 #define CPMESH_CP_LOOKUP_GLSL
 
 const uint CP_MAX_PROBES = 32;  // ClosestPointEmbedding::kMaxProbes
 const uint CP_EMPTY = 0xffffffffu;
+const int CP_TILE_SHIFT = 2;    // EmbeddingTiles::kShift: tiles of 4^3 cells
 
 uint cp_hash(uvec2 key) {  // fields::embedding_hash
   uint h = key.x ^ (key.y * 0x9e3779b9u);
@@ -22,13 +24,13 @@ uint cp_hash(uvec2 key) {  // fields::embedding_hash
   return h;
 }
 
-// Block of (cell, feature) or -1. key = cell << 16 | feature, as two 32-bit words.
-int cp_find_block(uint cell, uint feature) {
-  const uvec2 key = uvec2((cell << 16) | feature, cell >> 16);
+// Record of (tile, feature) or -1. key = tile << 16 | feature, as two 32-bit words.
+int cp_find_tile(uint tile, uint feature) {
+  const uvec2 key = uvec2((tile << 16) | feature, tile >> 16);
   uint slot = cp_hash(key) & CP_MASK;
   for (uint probe = 0; probe < CP_MAX_PROBES; ++probe) {
     const uvec2 k = cp_keys[slot];
-    if (k == key) return int(cp_blocks[slot]);
+    if (k == key) return int(cp_tiles[slot]);
     if (k.x == CP_EMPTY && k.y == CP_EMPTY) return -1;
     slot = (slot + 1) & CP_MASK;
   }
@@ -63,8 +65,8 @@ vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
 
 // Closest point (xyz) and sizing (w) for a point in local coordinates on `feature`; valid = false when part of the
 // stencil lies outside the feature's band (the point left it), and then the point itself is returned.
-// The 4^3 stencil of fine points lies in at most 3^3 cells (sub >= 2; 4^3 for sub = 1): each cell's block is looked
-// up once, not once per fine point.
+// The 4^3 stencil of fine points lies in at most 3^3 cells (sub >= 2; 4^3 for sub = 1), and those in at most 2^3
+// tiles: each tile is found once, then each cell's block read from its tile.
 vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   valid = false;
   const vec3 u = local_pos / CP_SPACING * float(CP_SUB);
@@ -74,13 +76,26 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   if (any(lessThan(base, ivec3(0)))) return vec4(local_pos, 0.0);
   const ivec3 c0 = base / CP_SUB, c1 = (base + 3) / CP_SUB;
   if (any(greaterThanEqual(c1, CP_DIMS))) return vec4(local_pos, 0.0);
-  int cell_block[64];
+  const ivec3 tile_dims = (CP_DIMS + (1 << CP_TILE_SHIFT) - 1) >> CP_TILE_SHIFT;
+  const ivec3 t0 = c0 >> CP_TILE_SHIFT, t1 = c1 >> CP_TILE_SHIFT;
+  uint tile_base[8];
+  for (int z = 0; z <= t1.z - t0.z; ++z)
+    for (int y = 0; y <= t1.y - t0.y; ++y)
+      for (int x = 0; x <= t1.x - t0.x; ++x) {
+        const ivec3 tile = t0 + ivec3(x, y, z);
+        const int record = cp_find_tile(uint((tile.z * tile_dims.y + tile.y) * tile_dims.x + tile.x), feature);
+        if (record < 0) return vec4(local_pos, 0.0);
+        tile_base[(z * 2 + y) * 2 + x] = uint(record) << (3 * CP_TILE_SHIFT);
+      }
+  uint cell_block[64];
   for (int z = 0; z <= c1.z - c0.z; ++z)
     for (int y = 0; y <= c1.y - c0.y; ++y)
       for (int x = 0; x <= c1.x - c0.x; ++x) {
         const ivec3 cell = c0 + ivec3(x, y, z);
-        const int block = cp_find_block(uint((cell.z * CP_DIMS.y + cell.y) * CP_DIMS.x + cell.x), feature);
-        if (block < 0) return vec4(local_pos, 0.0);
+        const ivec3 t = (cell >> CP_TILE_SHIFT) - t0, l = cell & ((1 << CP_TILE_SHIFT) - 1);
+        const uint block = cp_cells[tile_base[(t.z * 2 + t.y) * 2 + t.x] +
+                                    uint((((l.z << CP_TILE_SHIFT) | l.y) << CP_TILE_SHIFT) | l.x)];
+        if (block == CP_EMPTY) return vec4(local_pos, 0.0);
         cell_block[(z * 4 + y) * 4 + x] = block;
       }
   vec4 vy[4];
@@ -92,7 +107,7 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
         const ivec3 f = base + ivec3(x, y, z);
         const ivec3 cell = f / CP_SUB;
         const ivec3 s = f - cell * CP_SUB, c = cell - c0;
-        v[x] = cp_fine_point(uint(cell_block[(c.z * 4 + c.y) * 4 + c.x]), uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
+        v[x] = cp_fine_point(cell_block[(c.z * 4 + c.y) * 4 + c.x], uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
       }
       vx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
     }

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "fields/closest_point_embedding.h"
+#include "fields/cp_lookup_gpu.h"
 #include "ref/cp_lookup.h"
 #include "fields_volumes.h"
 
@@ -412,4 +413,38 @@ TEST_CASE("curve smoothing: a triple curve that meets only in the labels gives n
   CHECK(curve_blocks > 0);  // the full embedding keeps them (closest_point_embedding.cpp, step 5)
   CHECK(landed == 0);       // the curve is not in the fields
   CHECK(moves.empty());
+}
+
+TEST_CASE("embedding tiles: every (cell, feature) finds the embedding's own block, and no other cell finds one") {
+  // A grid that is not a multiple of the tile size, so edge tiles are partial.
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 34);
+  const auto fields = build_indicator_fields(wb.grid, wb.labels.data());
+  const auto E = build_closest_point_embedding(fields);
+  const auto T = build_embedding_tiles(E);
+  CHECK(T.dims == (E.grid.dims + 3) / 4);
+  size_t found = 0, mismatches = 0;
+  for (uint32_t f = 0; f < E.features.size(); ++f)
+    for (int z = 0; z < E.grid.dims.z; ++z)
+      for (int y = 0; y < E.grid.dims.y; ++y)
+        for (int x = 0; x < E.grid.dims.x; ++x) {
+          const int64_t want = E.find_block(E.grid.index(x, y, z), f);
+          mismatches += T.find_block({x, y, z}, f) != want;
+          found += want >= 0;
+        }
+  CHECK(found == E.block_count());
+  CHECK(mismatches == 0);
+  // Each tile record holds at least one block; records are 64 cells each.
+  const size_t records = T.cells.size() / EmbeddingTiles::kCells;
+  CHECK(T.cells.size() == records * EmbeddingTiles::kCells);
+  for (size_t r = 0; r < records; ++r)
+    CHECK(std::any_of(T.cells.begin() + ptrdiff_t(r * 64), T.cells.begin() + ptrdiff_t(r * 64 + 64),
+                      [](uint32_t b) { return b != EmbeddingTiles::kNoBlock; }));
+  MESSAGE(E.block_count() << " blocks in " << records << " tiles; index " << T.memory_bytes() / 1024
+                          << " KiB against the cell table's " << (E.keys.size() * 12) / 1024 << " KiB");
+  // An empty embedding gives an empty index that finds nothing.
+  ClosestPointEmbedding empty;
+  empty.grid = E.grid;
+  const auto none = build_embedding_tiles(empty);
+  CHECK(none.cells.empty());
+  CHECK(none.find_block({1, 2, 3}, 0) == -1);
 }
