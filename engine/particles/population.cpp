@@ -315,7 +315,6 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   AdvectionOptions adv = advection;
   adv.max_iterations = options.iterations_per_round;
   adv.min_iterations = options.min_iterations_per_round;
-  bool stalled = false;  // the last round changed nothing: another would only repeat it
   int steady_rounds = 0;
   for (int round = 1; round <= options.max_rounds; ++round) {
     RoundReport rep;
@@ -342,9 +341,9 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     rep.check_seconds = seconds_since(t);
     const bool balanced = rep.max_feature_deviation <= options.energy_tolerance;
     const bool settled = balanced && double(check.delete_candidates + check.add_candidates) <= options.significance * double(n);
-    if (settled || round == options.max_rounds || stalled || steady_rounds >= 2) {
+    if (settled || round == options.max_rounds || steady_rounds >= 2) {
       rep.total = n;
-      result.settled = settled || (stalled && balanced);
+      result.settled = settled;
       result.steady = steady_rounds >= 2;
       result.rounds.push_back(rep);
       if (on_round) on_round(rep);
@@ -356,7 +355,16 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     for (size_t i = 0; i < walk.size(); ++i) energies[i] = walk[i].w;
     result.population = add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
     rep.host_seconds = seconds_since(t);
-    stalled = rep.added == 0 && rep.deleted == 0;
+    if (rep.added == 0 && rep.deleted == 0) {
+      // Nothing to change: the population is the one the last run relaxed and this check measured, and another run
+      // would only repeat this round (it cost a full run of advection per relax before).
+      rep.total = n;
+      result.settled = settled;
+      result.steady = !settled;  // balanced out at zero
+      result.rounds.push_back(rep);
+      if (on_round) on_round(rep);
+      break;
+    }
     // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running; one
     // more advection run then ends it.
     const double net = std::fabs(double(rep.added) - double(rep.deleted));
