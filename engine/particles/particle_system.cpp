@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "cpmesh/shaders.h"
 
@@ -14,6 +15,12 @@ std::vector<uint64_t> feature_masks(const fields::ClosestPointEmbedding& E) {
   std::vector<uint64_t> masks;
   for (const auto& f : E.features) masks.push_back(f.material_mask());
   return masks;
+}
+
+std::vector<uint32_t> identity(size_t n) {
+  std::vector<uint32_t> v(n);
+  std::iota(v.begin(), v.end(), 0u);
+  return v;
 }
 
 std::vector<uint32_t> feature_kinds(const fields::ClosestPointEmbedding& E) {
@@ -37,13 +44,18 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       build_(ctx),
       moments_(ctx),
       walk_(ctx),
+      permute_(ctx),
       reduce_(ctx),
       advect_(ctx, shaders::advect),
       population_flags_(ctx, shaders::population_flags),
       particles_(ctx, particles, "particles"),
+      particles_spare_(ctx, n_, "particles (permuted)"),
       walk_result_(ctx, n_, "walk result"),
       node_moments_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size)),
       features_(ctx, features, "particle features"),
+      features_spare_(ctx, n_, "particle features (permuted)"),
+      ids_(ctx, identity(n_), "particle ids"),
+      ids_spare_(ctx, n_, "particle ids (permuted)"),
       feature_kinds_(ctx, feature_kinds(E), "feature kinds"),
       order_(ctx, n_, "morton order"),
       counts_(ctx, n_, "walk counts"),
@@ -73,6 +85,11 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
 void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
   if (rebuild) {
     sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
+    permute_.record(seq, order_, particles_, features_, ids_, particles_spare_, features_spare_, ids_spare_, n_);
+    seq.barrier();
+    std::swap(particles_, particles_spare_);
+    std::swap(features_, features_spare_);
+    std::swap(ids_, ids_spare_);
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
     steps_since_build_ = 0;
   }
@@ -87,7 +104,7 @@ std::vector<glm::vec4> ParticleSystem::energies() {
   gpu::Sequence seq(*ctx_);
   record_walk(seq, true);
   seq.submit_and_wait();
-  return walk_result_.download();
+  return in_caller_order(walk_result_);
 }
 
 IterationStats ParticleSystem::step() {

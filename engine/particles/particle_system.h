@@ -10,6 +10,7 @@
 #include "octree/morton.h"
 #include "octree/octree_build.h"
 #include "octree/tree_walk.h"
+#include "particles/particle_permute.h"
 #include "primitives/reduce.h"
 
 namespace cpmesh::particles {
@@ -50,7 +51,7 @@ class ParticleSystem {
   };
   RunResult run();
 
-  std::vector<glm::vec4> particles() const { return particles_.download(); }
+  std::vector<glm::vec4> particles() const { return in_caller_order(particles_); }
   // Energy and gradient of every particle at the current positions (a walk without a step).
   std::vector<glm::vec4> energies();
   uint32_t size() const { return n_; }
@@ -68,11 +69,20 @@ class ParticleSystem {
     std::vector<uint32_t> count;       // per feature: particles counted
   };
   PopulationCheck check_population(const std::vector<float>& ideals, float delete_factor, float add_factor);
-  std::vector<uint32_t> flags() const { return flags_.download(); }  // of the last check: 0, 1 delete, 2 add
-  std::vector<glm::vec4> walk_result() const { return walk_result_.download(); }  // (gradient, E), last walk
+  std::vector<uint32_t> flags() const { return in_caller_order(flags_); }  // of the last check: 0, 1 delete, 2 add
+  std::vector<glm::vec4> walk_result() const { return in_caller_order(walk_result_); }  // (gradient, E), last walk
 
  private:
   void record_walk(gpu::Sequence& seq, bool rebuild);
+  // A per-slot buffer read back with element i for the caller's particle i (slots are in Morton order).
+  template <class T>
+  std::vector<T> in_caller_order(const gpu::Buffer<T>& buffer) const {
+    const std::vector<T> by_slot = buffer.download(0, n_);
+    const std::vector<uint32_t> ids = ids_.download(0, n_);
+    std::vector<T> out(n_);
+    for (uint32_t q = 0; q < n_; ++q) out[ids[q]] = by_slot[q];
+    return out;
+  }
   gpu::Context* ctx_;
   AdvectionOptions options_;
   float alpha_;
@@ -85,11 +95,13 @@ class ParticleSystem {
   octree::OctreeBuild build_;
   octree::OctreeMoments moments_;
   octree::TreeWalk walk_;
+  ParticlePermute permute_;
   gpu::Reduce reduce_;
   gpu::Kernel advect_, population_flags_;
-  gpu::Buffer<glm::vec4> particles_, walk_result_;
+  gpu::Buffer<glm::vec4> particles_, particles_spare_, walk_result_;
   octree::NodeMoments node_moments_;
-  gpu::Buffer<uint32_t> features_, feature_kinds_, order_, counts_, visits_, lost_, flags_;
+  gpu::Buffer<uint32_t> features_, features_spare_, ids_, ids_spare_;  // ids_: the caller's index of each slot
+  gpu::Buffer<uint32_t> feature_kinds_, order_, counts_, visits_, lost_, flags_;
   gpu::Buffer<uint64_t> feature_masks_, keys_;
   gpu::Buffer<glm::uvec4> nodes_;
   gpu::Buffer<glm::uvec2> level_info_;
