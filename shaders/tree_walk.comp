@@ -11,6 +11,8 @@
 //           (xyz, w = h); 4 features uint[n]; 5 feature_masks uvec2[]; 6 result vec4[n] (gradient of E_i wrt p_i in
 //           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out);
 //           8 visits uint[n] (nodes visited).
+// Compiled twice: tree_walk (exact; theta unused) and tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
+// on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%.
 // Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
@@ -60,7 +62,8 @@ void main() {
     const vec3 outside = max(max(lo - p, p - up), vec3(0.0));
     const float box_distance2 = dot(outside, outside);
     if (box_distance2 > cutoff * cutoff) continue;
-    if (pc.theta > 0.0 && box_distance2 > 0.0) {
+#ifdef BARNES_HUT
+    if (box_distance2 > 0.0) {
       const vec4 com = m_com[id];
       const vec3 extent = up - lo;
       const vec3 delta = p - com.xyz;
@@ -79,6 +82,7 @@ void main() {
         continue;
       }
     }
+#endif
     const uvec4 node = nodes[id];
     const uint children = node.w & 0xffu;
     if (children == 0) {

@@ -6,7 +6,7 @@
 
 namespace cpmesh::octree {
 
-TreeWalk::TreeWalk(gpu::Context& ctx) : kernel_(ctx, shaders::tree_walk) {}
+TreeWalk::TreeWalk(gpu::Context& ctx) : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh) {}
 
 void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
@@ -22,7 +22,7 @@ void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, 
     uint32_t walkers;
     float theta;
   } push{walkers, theta};
-  seq.dispatch(kernel_, {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features, feature_masks, result,
+  seq.dispatch(theta > 0.0f ? barnes_hut_ : exact_, {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features, feature_masks, result,
                           counts, visits}, push, walkers);
 }
 

@@ -23,7 +23,7 @@ class TreeWalk {
   static constexpr uint32_t kBudgetExceeded = 0x80000000u;
 
  private:
-  gpu::Kernel kernel_;
+  gpu::Kernel exact_, barnes_hut_;  // shaders/tree_walk.comp without and with BARNES_HUT
 };
 
 }  // namespace cpmesh::octree
