@@ -2,7 +2,7 @@
 // device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
-//                         [--only-surfaces] [--max-size H] [--min-size H] [--no-peer] [--peer-match]
+//                         [--only-surfaces] [--max-size H] [--min-size H] [--seed S] [--no-peer] [--peer-match]
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
 // directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral;
 // with --peer-match more CGAL rows, at facet sizes closing in on cpmesh's triangle count.
@@ -61,6 +61,8 @@ int main(int argc, char** argv) {
                  "A volume whose seeding makes more particles stops there and gets a row saying so (0: no limit); "
                  "caps thin-layered volumes on slow devices")
       ->capture_default_str();
+  uint32_t seed = mesh::MeshOptions{}.population.seed;
+  app.add_option("--seed", seed, "Random seed of the particle population (same seed, same result)")->capture_default_str();
   double peer_facet = 1.5;
   bool no_peer = false, peer_match = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
@@ -85,6 +87,7 @@ int main(int argc, char** argv) {
       options.fields.sizing.h_max = max_size;
       options.fields.sizing.h_min = min_size;
       options.max_particles = max_particles;
+      options.population.seed = seed;
       const auto t0 = std::chrono::steady_clock::now();
       mesh::MeshResult r;
       try {
@@ -130,7 +133,7 @@ int main(int argc, char** argv) {
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
           {"crossing_triangles", rep.crossing_triangles},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
-          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"max_particles", max_particles}}}};
+          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       std::cout << j.dump() << '\n';
 
