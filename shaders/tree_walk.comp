@@ -13,7 +13,8 @@
 //           8 visits uint[n] (nodes visited).
 // Compiled twice: tree_walk (exact; theta unused) and tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
 // on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%.
-// Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per workgroup.
+// Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per
+// workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
 #extension GL_GOOGLE_include_directive : require

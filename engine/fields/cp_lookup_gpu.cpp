@@ -11,8 +11,8 @@ namespace cpmesh::fields {
 namespace {
 
 uint64_t tile_key(const glm::ivec3& tile, const glm::ivec3& tile_dims, uint32_t feature) {
-  return (uint64_t((size_t(tile.z) * size_t(tile_dims.y) + size_t(tile.y)) * size_t(tile_dims.x) + size_t(tile.x)) << 16) |
-         feature;
+  const size_t index = (size_t(tile.z) * size_t(tile_dims.y) + size_t(tile.y)) * size_t(tile_dims.x) + size_t(tile.x);
+  return (uint64_t(index) << 16) | feature;
 }
 
 uint32_t cell_in_tile(const glm::ivec3& cell) {
@@ -67,8 +67,9 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
   const EmbeddingTiles T = build_embedding_tiles(E);
   tile_keys = gpu::Buffer<uint64_t>(ctx, T.keys, "embedding tile keys");
   tiles = gpu::Buffer<uint32_t>(ctx, T.tiles, "embedding tiles");
-  tile_cells = gpu::Buffer<uint32_t>(ctx, T.cells.empty() ? std::vector<uint32_t>(1, EmbeddingTiles::kNoBlock) : T.cells,
-                                     "embedding tile cells");
+  // An empty embedding still binds one (empty) cell.
+  const std::vector<uint32_t> cells = T.cells.empty() ? std::vector<uint32_t>(1, EmbeddingTiles::kNoBlock) : T.cells;
+  tile_cells = gpu::Buffer<uint32_t>(ctx, cells, "embedding tile cells");
   table_mask = uint32_t(T.keys.size() - 1);
   const uint64_t block_bytes = uint64_t(E.sub * E.sub * E.sub) * sizeof(glm::vec4);
   const uint64_t limit = max_chunk_bytes ? max_chunk_bytes : ctx.info().max_storage_buffer_range;
@@ -101,7 +102,9 @@ void CpLookup::record(gpu::Sequence& seq, const GpuEmbedding& e, const gpu::Buff
     uint32_t n, table_mask, chunk_blocks;
   } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), n, e.table_mask, e.chunk_blocks};
   static_assert(sizeof(push) == 44);
-  seq.dispatch(kernel_, {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], queries, results, valid}, push, n);
+  seq.dispatch(kernel_,
+               {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], queries, results, valid},
+               push, n);
 }
 
 }  // namespace cpmesh::fields

@@ -120,8 +120,9 @@ IterationStats ParticleSystem::step() {
     float alpha, max_move;
   } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), e.table_mask, e.chunk_blocks, n_, alpha_,
          options_.max_move};
-  seq.dispatch(advect_, {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], particles_, features_,
-                         feature_kinds_, walk_result_, energy_, lost_},
+  seq.dispatch(advect_,
+               {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], particles_, features_,
+                feature_kinds_, walk_result_, energy_, lost_},
                push, n_)
       .barrier();
   reduce_.record(seq, gpu::ReduceOp::sum, energy_, n_, readback_);

@@ -62,7 +62,8 @@ int main(int argc, char** argv) {
                  "caps thin-layered volumes on slow devices")
       ->capture_default_str();
   uint32_t seed = mesh::MeshOptions{}.population.seed;
-  app.add_option("--seed", seed, "Random seed of the particle population (same seed, same result)")->capture_default_str();
+  app.add_option("--seed", seed, "Random seed of the particle population (same seed, same result)")
+      ->capture_default_str();
   double peer_facet = 1.5;
   bool no_peer = false, peer_match = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
@@ -133,7 +134,9 @@ int main(int argc, char** argv) {
           {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
           {"crossing_triangles", rep.crossing_triangles},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
-          {"settings", {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"max_particles", max_particles}, {"seed", seed}}}};
+          {"settings",
+           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces},
+            {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       std::cout << j.dump() << '\n';
 
