@@ -1,7 +1,6 @@
 #include "fields/cp_lookup_gpu.h"
 
 #include <algorithm>
-#include <numeric>
 
 #include "cpmesh/shaders.h"
 #include "gpu/describe.h"

@@ -22,8 +22,10 @@ void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, 
     uint32_t walkers;
     float theta;
   } push{walkers, theta};
-  seq.dispatch(theta > 0.0f ? barnes_hut_ : exact_, {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features, feature_masks, result,
-                          counts, visits}, push, walkers);
+  seq.dispatch(theta > 0.0f ? barnes_hut_ : exact_,
+               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features,
+                feature_masks, result, counts, visits},
+               push, walkers);
 }
 
 }  // namespace cpmesh::octree

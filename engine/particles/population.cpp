@@ -341,36 +341,32 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     rep.check_seconds = seconds_since(t);
     const bool balanced = rep.max_feature_deviation <= options.energy_tolerance;
     const bool settled = balanced && double(check.delete_candidates + check.add_candidates) <= options.significance * double(n);
-    if (settled || round == options.max_rounds || steady_rounds >= 2) {
+    // A round whose add/delete step changes nothing ends the rounds too: the population is the one the last run
+    // relaxed and this check measured, and another run would only repeat this round (balanced out at zero: steady).
+    const bool last = settled || round == options.max_rounds || steady_rounds >= 2;
+    if (!last) {
+      t = clock::now();
+      const auto walk = system.walk_result();
+      std::vector<float> energies(walk.size());
+      for (size_t i = 0; i < walk.size(); ++i) energies[i] = walk[i].w;
+      result.population =
+          add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
+      rep.host_seconds = seconds_since(t);
+    }
+    const bool unchanged = !last && rep.added == 0 && rep.deleted == 0;
+    if (last || unchanged) {
       rep.total = n;
       result.settled = settled;
-      result.steady = steady_rounds >= 2;
-      result.rounds.push_back(rep);
-      if (on_round) on_round(rep);
-      break;
+      result.steady = steady_rounds >= 2 || unchanged;
+    } else {
+      // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running; one
+      // more advection run then ends it.
+      const double net = std::fabs(double(rep.added) - double(rep.deleted));
+      steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
     }
-    t = clock::now();
-    const auto walk = system.walk_result();
-    std::vector<float> energies(walk.size());
-    for (size_t i = 0; i < walk.size(); ++i) energies[i] = walk[i].w;
-    result.population = add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
-    rep.host_seconds = seconds_since(t);
-    if (rep.added == 0 && rep.deleted == 0) {
-      // Nothing to change: the population is the one the last run relaxed and this check measured, and another run
-      // would only repeat this round (it cost a full run of advection per relax before).
-      rep.total = n;
-      result.settled = settled;
-      result.steady = !settled;  // balanced out at zero
-      result.rounds.push_back(rep);
-      if (on_round) on_round(rep);
-      break;
-    }
-    // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running; one
-    // more advection run then ends it.
-    const double net = std::fabs(double(rep.added) - double(rep.deleted));
-    steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
     result.rounds.push_back(rep);
     if (on_round) on_round(rep);
+    if (last || unchanged) break;
   }
   return result;
 }
