@@ -33,9 +33,10 @@ void sample_feature_fields(const IndicatorFields& F, const int* m, int count, co
 }
 
 // Newton with the minimum-norm step on the constraints f_{m0} - f_{ma} = 0, a = 1..k (k = 1, 2 or 3).
-// On success, grad_out (optional, k + 1 entries) receives the gradients at the last sample, within tol of x.
+// On success, grad_out (optional, k + 1 entries) receives the gradients at the last sample, within tol of x, and
+// value_out (optional) f_{m0} at x (from the last sample, to first order in the last step).
 bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int iterations, double tol,
-            glm::dvec3* grad_out, bool give_up_stagnating) {
+            glm::dvec3* grad_out, bool give_up_stagnating, double* value_out = nullptr) {
   const double max_step = F.grid.min_spacing();
   constexpr int kStagnationWindow = 4;
   constexpr double kStagnationRatio = 0.75;
@@ -81,6 +82,7 @@ bool newton(const IndicatorFields& F, const int* m, int k, glm::dvec3& x, int it
     x -= step;
     if (gmax < tol && len < tol) {
       if (grad_out) std::copy(grad, grad + k + 1, grad_out);
+      if (value_out) *value_out = f[0] - glm::dot(grad[0] / F.grid.spacing, step);
       return true;
     }
   }
@@ -442,7 +444,8 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 }
 
 bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
-                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating) {
+                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating,
+                        double* value_out) {
   int m[4];
   const int count = materials_of(feature, m);
   const int k = count - 1;
@@ -471,10 +474,11 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
       if (std::isfinite(next.x + next.y + next.z)) x = next;
     }
   }
-  bool ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating);
+  double value = 0, next_value = 0;
+  bool ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating, &value);
   if (!ok && start) {  // the foot led Newton astray (a field's edge, another sheet): from the start itself
     x = *start;
-    ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating);
+    ok = newton(F, m, k, x, newton_iterations, tol, g, give_up_stagnating, &value);
   }
   for (int round = 1; ok && k < 3 && round < rounds; ++round) {
     // Move the start to the foot of x0 on the tangent space at x and solve again, so the result is the closest point
@@ -485,10 +489,12 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
     // Parallel gradients (a curve's two interfaces tangent to each other) leave no tangent: keep x.
     if (!std::isfinite(next.x + next.y + next.z) || glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
-    if (!newton(F, m, k, y, newton_iterations, tol, g, give_up_stagnating)) break;  // keep the last converged point
-    x = y;
+    if (!newton(F, m, k, y, newton_iterations, tol, g, give_up_stagnating, &next_value)) break;  // keep the last
+    x = y;                                                                                        // converged point
+    value = next_value;
   }
   out = x;
+  if (ok && value_out) *value_out = value;
   return ok;
 }
 
@@ -677,8 +683,9 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
             }
             break;
           }
+          double own = 0;  // f of the feature's first material at cp: from the projection's last sample when it landed
           bool ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
-                                       level == 0 && warm_ok ? &warm : nullptr, curves_only);
+                                       level == 0 && warm_ok ? &warm : nullptr, curves_only, &own);
           // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
           // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
           // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
@@ -686,12 +693,12 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
             glm::dvec3 nudged = x0;
             nudged[d / 2] += (d % 2 ? -1.0 : 1.0) * grid.spacing[d / 2] / 3.0;
             ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged,
-                                    curves_only);
+                                    curves_only, &own);
           }
           landed = ok;
           int m[4];
           const int count = materials_of(feat, m);
-          const double own = F.fields[size_t(m[0])].sample_cubic_local(cp);
+          if (!ok) own = F.fields[size_t(m[0])].sample_cubic_local(cp);
           int intruder = -1;
           double worst = own + 1e-4 * h;
           const glm::ivec3 nearest = glm::clamp(glm::ivec3(glm::round(cp / grid.spacing)), glm::ivec3(0), grid.dims - 1);
