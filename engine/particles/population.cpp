@@ -363,6 +363,10 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
       // more advection run then ends it.
       const double net = std::fabs(double(rep.added) - double(rep.deleted));
       steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
+      // The next run's length at least: a small change settles locally (population.h).
+      const bool small = double(rep.added) + double(rep.deleted) <= options.small_change_share * double(n);
+      adv.min_iterations = small ? std::min(options.min_iterations_per_round, options.min_iterations_after_small_change)
+                                 : options.min_iterations_per_round;
     }
     result.rounds.push_back(rep);
     if (on_round) on_round(rep);

@@ -163,6 +163,20 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball, graded sizing: the settled density fo
   MESSAGE("grid points only: " << gridded.kept << " seeds -> " << rg.population.particles.size() << " particles in "
                                << rg.rounds.size() << " rounds, " << rg.iterations << " iterations");
   CHECK((r.settled || r.steady));
+  // Every run lasts min_iterations_per_round at least, but min_iterations_after_small_change after an add/delete step
+  // that changed at most small_change_share of the particles; this volume has such steps.
+  int small_steps = 0, shortened = 0;
+  for (size_t i = 1; i < r.rounds.size(); ++i) {
+    const auto& before = r.rounds[i - 1];
+    const double n = double(before.total) - double(before.added) + double(before.deleted);
+    const bool small = double(before.added + before.deleted) <= po.small_change_share * n;
+    small_steps += small;
+    CHECK(r.rounds[i].iterations >= (small ? po.min_iterations_after_small_change : po.min_iterations_per_round));
+    CHECK(r.rounds[i].iterations <= po.iterations_per_round);
+    shortened += r.rounds[i].iterations < po.min_iterations_per_round;
+  }
+  CHECK(small_steps > 0);
+  CHECK(shortened > 0);  // measured: round 4 of 6 ran 11 iterations
   CHECK(r.rounds.size() <= rg.rounds.size());
   CHECK(r.iterations < rg.iterations);
   // Quadruple points are seeded exactly and never move or leave.

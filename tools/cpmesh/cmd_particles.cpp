@@ -34,6 +34,12 @@ void add_population_options(CLI::App* sub, particles::PopulationOptions& p) {
   sub->add_option("--max-rounds", p.max_rounds, "Add/delete rounds at most")->capture_default_str();
   sub->add_option("--round-iterations", p.iterations_per_round, "Advection iterations per round at most")->capture_default_str();
   sub->add_option("--min-round-iterations", p.min_iterations_per_round, "Advection iterations per round at least")->capture_default_str();
+  sub->add_option("--min-small-round-iterations", p.min_iterations_after_small_change,
+                  "Advection iterations at least after an add/delete step that changed at most --small-change of the particles")
+      ->capture_default_str();
+  sub->add_option("--small-change", p.small_change_share, "Share of the particles an add/delete step changes at most to count as small")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   sub->add_option("--min-feature-particles", p.min_feature_particles, "Features with fewer particles get no count correction")->capture_default_str();
   sub->add_option("--add-tries", p.add_tries, "Random directions tried per add candidate")->capture_default_str();
   sub->add_option("--seed", p.seed, "Random seed (same seed, same result)")->capture_default_str();
