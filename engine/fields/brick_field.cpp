@@ -1,7 +1,6 @@
 #include "fields/brick_field.h"
 
 #include <algorithm>
-#include <cstring>
 
 namespace cpmesh::fields {
 
@@ -48,9 +47,6 @@ void BrickField::set(int i, int j, int k, float value) {
 }
 
 namespace {
-// Four floats as one SSE / NEON register (a GCC and Clang vector extension): a stencil row along x.
-using Row = float __attribute__((vector_size(16)));
-
 // Catmull-Rom weights and their derivatives for the 4 samples at -1, 0, 1, 2 around t in [0, 1].
 void catmull_rom(double t, double w[4], double dw[4]) {
   const double t2 = t * t, t3 = t2 * t;
@@ -102,25 +98,17 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
     bz[a] = z / kBrick;
     oz[a] = z % kBrick;
   }
-  // Per (z, y) row of the stencil, the products of its y and z weights: the value's and d/dx's (wyz), d/dy's (wdy),
-  // d/dz's (wdz). The rows are then summed as 4-lane float vectors along x (Row below), one row per step, and the x
-  // weights applied once per field at the end.
-  Row wyz[16], wdy[16], wdz[16];
-  for (int c = 0; c < 4; ++c)
-    for (int b = 0; b < 4; ++b) {
-      wyz[c * 4 + b] = Row{} + float(wz[c] * wy[b]);
-      wdy[c * 4 + b] = Row{} + float(wz[c] * dy[b]);
-      wdz[c * 4 + b] = Row{} + float(dz[c] * wy[b]);
-    }
-  // The samples span at most two bricks per axis. A row whose four x samples are consecutive voxels of one brick
-  // (5 positions of 8, away from the grid's faces) is one 16-byte load; other rows are gathered sample by sample.
-  int sx[4];
-  for (int a = 0; a < 4; ++a) sx[a] = bx[a] - bx[0];
-  const bool x_run = sx[3] == 0 && ox[3] == ox[0] + 3;
+  // The samples span at most two bricks per axis: resolve those (up to 8) once per field, then index within them.
+  int sx[4], sy[4], sz[4];  // which of the two bricks, per axis and sample
+  for (int a = 0; a < 4; ++a) {
+    sx[a] = bx[a] - bx[0];
+    sy[a] = by[a] - by[0];
+    sz[a] = bz[a] - bz[0];
+  }
   for (int m = 0; m < count; ++m) {
     const BrickField& f = *fields[m];
-    const float* bricks[2][2][2];  // [z][y][x] of the 2 x 2 x 2 bricks the stencil can touch; null: constant
-    float constants[2][2][2];
+    const float* data[2][2][2];
+    float constant[2][2][2];
     for (int c = 0; c < 2; ++c)
       for (int b = 0; b < 2; ++b)
         for (int a = 0; a < 2; ++a) {
@@ -128,33 +116,26 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
                     xb = std::min(bx[0] + a, f.brick_dims_.x - 1);
           const size_t brick = (size_t(zb) * size_t(f.brick_dims_.y) + size_t(yb)) * size_t(f.brick_dims_.x) + size_t(xb);
           const int32_t slot = f.slot_[brick];
-          bricks[c][b][a] = slot < 0 ? nullptr : f.data_.data() + size_t(slot) * kBrickVoxels;
-          constants[c][b][a] = f.constant_[brick];
+          data[c][b][a] = slot < 0 ? nullptr : f.data_.data() + size_t(slot) * kBrickVoxels;
+          constant[c][b][a] = f.constant_[brick];
         }
-    Row sum{}, sum_dy{}, sum_dz{};
-    for (int c = 0; c < 4; ++c)
-      for (int b = 0; b < 4; ++b) {
-        const float* const* data = bricks[bz[c] - bz[0]][by[b] - by[0]];
-        const float* constant = constants[bz[c] - bz[0]][by[b] - by[0]];
-        const int offset = (oz[c] * kBrick + oy[b]) * kBrick;
-        Row v;
-        if (x_run && data[0]) {
-          std::memcpy(&v, data[0] + offset + ox[0], sizeof(v));
-        } else {
-          for (int a = 0; a < 4; ++a) v[a] = data[sx[a]] ? data[sx[a]][offset + ox[a]] : constant[sx[a]];
-        }
-        sum += wyz[c * 4 + b] * v;
-        sum_dy += wdy[c * 4 + b] * v;
-        sum_dz += wdz[c * 4 + b] * v;
-      }
     double v = 0;
     glm::dvec3 g(0.0);
-    for (int a = 0; a < 4; ++a) {
-      v += wx[a] * double(sum[a]);
-      g.x += dx[a] * double(sum[a]);
-      g.y += wx[a] * double(sum_dy[a]);
-      g.z += wx[a] * double(sum_dz[a]);
-    }
+    for (int c = 0; c < 4; ++c)
+      for (int b = 0; b < 4; ++b) {
+        const int offset_row = (oz[c] * kBrick + oy[b]) * kBrick;
+        double row = 0, row_dx = 0;
+        for (int a = 0; a < 4; ++a) {
+          const float* d = data[sz[c]][sy[b]][sx[a]];
+          const double s = d ? d[offset_row + ox[a]] : constant[sz[c]][sy[b]][sx[a]];
+          row += wx[a] * s;
+          row_dx += dx[a] * s;
+        }
+        v += wz[c] * wy[b] * row;
+        g.x += wz[c] * wy[b] * row_dx;
+        g.y += wz[c] * dy[b] * row;
+        g.z += dz[c] * wy[b] * row;
+      }
     values[m] = v;
     if (gradients) gradients[m] = g;
   }
