@@ -34,11 +34,17 @@ std::vector<uint32_t> feature_kinds(const fields::ClosestPointEmbedding& E) {
 ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbedding& E,
                                const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
                                const AdvectionOptions& options)
+    : ParticleSystem(ctx, E, std::make_shared<const fields::GpuEmbedding>(ctx, E), particles, features, options) {}
+
+ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbedding& E,
+                               std::shared_ptr<const fields::GpuEmbedding> gpu_embedding,
+                               const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
+                               const AdvectionOptions& options)
     : ctx_(&ctx),
       options_(options),
       alpha_(options.alpha),
       n_(uint32_t(particles.size())),
-      embedding_(ctx, E),
+      embedding_(std::move(gpu_embedding)),
       box_(octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(glm::dvec3(E.grid.dims) * E.grid.spacing))),
       sort_(ctx),
       build_(ctx),
@@ -112,7 +118,7 @@ IterationStats ParticleSystem::step() {
   seq.fill(lost_, 0).barrier();
   record_walk(seq, steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1));
   ++steps_since_build_;
-  const auto& e = embedding_;
+  const auto& e = *embedding_;
   const struct {
     glm::ivec4 dims_sub;
     glm::vec4 spacing;

@@ -312,6 +312,8 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   result.population = std::move(start);
   const std::vector<float> ideals = feature_ideals(E);
   std::mt19937 rng(options.seed ^ 0x9e3779b9u);
+  // One copy of the embedding on the device serves every round's particle system.
+  const auto gpu_embedding = std::make_shared<const fields::GpuEmbedding>(ctx, E);
   AdvectionOptions adv = advection;
   adv.max_iterations = options.iterations_per_round;
   adv.min_iterations = options.min_iterations_per_round;
@@ -320,7 +322,7 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     RoundReport rep;
     rep.round = round;
     auto t = clock::now();
-    ParticleSystem system(ctx, E, result.population.particles, result.population.features, adv);
+    ParticleSystem system(ctx, E, gpu_embedding, result.population.particles, result.population.features, adv);
     const auto run = system.run();
     rep.iterations = run.iterations;
     rep.converged = run.converged;
