@@ -448,16 +448,21 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
   return -1;
 }
 
-bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
-                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating,
-                        double* value_out) {
+namespace {
+
+// project_to_feature, and where the start is a neighbour's closest point on the same feature, that projection's last
+// gradients (start_gradients, index units: a sample saved); gradients_out receives this one's on success.
+bool project_from(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
+                  int newton_iterations, int rounds, const glm::dvec3* start, const glm::dvec3* start_gradients,
+                  bool give_up_stagnating, double* value_out, glm::dvec3* gradients_out) {
   int m[4];
   const int count = materials_of(feature, m);
   const int k = count - 1;
   const double tol = 1e-5 * F.grid.min_spacing();
   // The foot of x0 on the tangent space at x (on the feature), from the fields' gradients there (index units).
-  auto foot = [&](const glm::dvec3& x, glm::dvec3* g) {
-    for (int a = 0; a < count; ++a) g[a] /= F.grid.spacing;
+  auto foot = [&](const glm::dvec3& x, const glm::dvec3* grad) {
+    glm::dvec3 g[4];
+    for (int a = 0; a < count; ++a) g[a] = grad[a] / F.grid.spacing;
     const glm::dvec3 d = x0 - x;
     if (k == 1) {
       const glm::dvec3 n = glm::normalize(g[0] - g[1]);
@@ -473,8 +478,12 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
     // within the curvature's reach of the answer, so Newton and the rounds below have little left to do.
     x = *start;
     if (k < 3) {
-      double f[4];
-      sample_feature_fields(F, m, count, x, f, g);
+      if (start_gradients) {
+        std::copy(start_gradients, start_gradients + count, g);
+      } else {
+        double f[4];
+        sample_feature_fields(F, m, count, x, f, g);
+      }
       const glm::dvec3 next = foot(x, g);
       if (std::isfinite(next.x + next.y + next.z)) x = next;
     }
@@ -500,7 +509,17 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
   }
   out = x;
   if (ok && value_out) *value_out = value;
+  if (ok && gradients_out) std::copy(g, g + count, gradients_out);
   return ok;
+}
+
+}  // namespace
+
+bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
+                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating,
+                        double* value_out) {
+  return project_from(F, feature, x0, out, newton_iterations, rounds, start, nullptr, give_up_stagnating, value_out,
+                      nullptr);
 }
 
 namespace {
@@ -661,6 +680,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
       const size_t cell = size_t(cells[b] >> 16);
       const uint32_t fid = uint32_t(cells[b] & 0xffff);
       const glm::ivec3 c = grid.voxel(cell);
+      glm::dvec3 warm_gradients[4];
+      bool warm_gradients_ok = false;
       for (int q = 0; q < per_block; ++q) {
         const glm::dvec3 ijk = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
         const glm::dvec3 x0 = grid.local(ijk);
@@ -671,6 +692,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         // (Where that point failed, where its Newton stopped is still a better start than x0 on a medial surface.)
         const bool warm_ok = q > 0 && E.features[fid].kind != FeatureKind::quadruple_point;
         const bool nudge = !curves_only || q == 0 || landed_in[b];
+        glm::dvec3 gradients[4] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};  // of this point's
+                                                                                                     // projection onto fid
         bool landed = false;  // cp is a converged projection onto `feature`, or its located quadruple point
         uint32_t feature = fid;
         // Restriction: at most two escalations (interface -> curve -> point).
@@ -689,16 +712,18 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
             break;
           }
           double own = 0;  // f of the feature's first material at cp: from the projection's last sample when it landed
-          bool ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
-                                       level == 0 && warm_ok ? &warm : nullptr, curves_only, &own);
+          const bool from_warm = level == 0 && warm_ok;
+          bool ok = project_from(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds,
+                                 from_warm ? &warm : nullptr, from_warm && warm_gradients_ok ? warm_gradients : nullptr,
+                                 curves_only, &own, level == 0 ? gradients : nullptr);
           // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
           // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
           // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
           for (int d = 0; !ok && nudge && d < 6; ++d) {
             glm::dvec3 nudged = x0;
             nudged[d / 2] += (d % 2 ? -1.0 : 1.0) * grid.spacing[d / 2] / 3.0;
-            ok = project_to_feature(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged,
-                                    curves_only, &own);
+            ok = project_from(F, feat, x0, cp, options.newton_iterations, options.closest_point_rounds, &nudged,
+                              nullptr, curves_only, &own, level == 0 ? gradients : nullptr);
           }
           landed = ok;
           int m[4];
@@ -727,6 +752,9 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         }
         E.fine[b * size_t(per_block) + size_t(q)] = glm::vec4(glm::vec3(cp), 0.0f);
         owner[b * size_t(per_block) + size_t(q)] = feature;
+        // The next point starts from this one's closest point, and on fid from its gradients too.
+        warm_gradients_ok = landed && feature == fid && E.features[fid].kind != FeatureKind::quadruple_point;
+        if (warm_gradients_ok) std::copy(gradients, gradients + 4, warm_gradients);
         landed_in[b] |= uint8_t(landed);
       }
     }
