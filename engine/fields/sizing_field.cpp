@@ -308,7 +308,11 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   // 3. Grading: Dijkstra over the 26-neighbourhood of the band's cells enforces h(c) <= h(n) + grading * |c - n|.
   using Item = std::pair<double, size_t>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  for (size_t c = 0; c < cells.size(); ++c) queue.push({hc[c], c});
+  // A cell can lower a neighbour only when its h is below h_max by more than grading x the shortest step (every h is
+  // at most h_max): the rest, the flat parts' h_max cells, start outside the queue (and enter it if lowered).
+  const double lowers_below = h_max - options.grading * grid.min_spacing();
+  for (size_t c = 0; c < cells.size(); ++c)
+    if (hc[c] < lowers_below) queue.push({hc[c], c});
   while (!queue.empty()) {
     const auto [h, c] = queue.top();
     queue.pop();
