@@ -503,8 +503,9 @@ bool project_from(const IndicatorFields& F, const Feature& feature, const glm::d
     // Parallel gradients (a curve's two interfaces tangent to each other) leave no tangent: keep x.
     if (!std::isfinite(next.x + next.y + next.z) || glm::length((next - x) / F.grid.spacing) < 1e-3) break;
     glm::dvec3 y = next;
-    if (!newton(F, m, k, y, newton_iterations, tol, g, give_up_stagnating, &next_value)) break;  // keep the last
-    x = y;                                                                                        // converged point
+    // A failed run keeps the last converged point (and its gradients and value).
+    if (!newton(F, m, k, y, newton_iterations, tol, g, give_up_stagnating, &next_value)) break;
+    x = y;
     value = next_value;
   }
   out = x;
@@ -692,8 +693,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         // (Where that point failed, where its Newton stopped is still a better start than x0 on a medial surface.)
         const bool warm_ok = q > 0 && E.features[fid].kind != FeatureKind::quadruple_point;
         const bool nudge = !curves_only || q == 0 || landed_in[b];
-        glm::dvec3 gradients[4] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};  // of this point's
-                                                                                                     // projection onto fid
+        // The gradients of this point's projection onto fid (the next point's start, when it lands there).
+        glm::dvec3 gradients[4] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};
         bool landed = false;  // cp is a converged projection onto `feature`, or its located quadruple point
         uint32_t feature = fid;
         // Restriction: at most two escalations (interface -> curve -> point).
