@@ -95,8 +95,8 @@ class ParticleSystem {
   uint32_t n_;
   std::shared_ptr<const fields::GpuEmbedding> embedding_;
   octree::MortonBox box_;
-  uint32_t max_level_ = 21;
-  int steps_since_build_ = -1;  // step() iterations since the octree topology was built (-1: never)  // octree depth: cells down to a quarter of the smallest h (octree_levels)
+  uint32_t max_level_ = 21;     // octree depth: cells down to a quarter of the smallest h (octree_levels)
+  int steps_since_build_ = -1;  // step() iterations since the octree topology was built (-1: never)
   octree::MortonSort sort_;
   octree::OctreeBuild build_;
   octree::OctreeMoments moments_;
