@@ -43,8 +43,13 @@ void gaussian_pass(std::vector<float>& f, const glm::ivec3& n, int axis, double 
         for (int q = 0; q < len; ++q) line[size_t(q)] = p[size_t(q) * s];
         for (int q = 0; q < len; ++q) {
           double acc = 0;
-          for (int r2 = -radius; r2 <= radius; ++r2)
-            acc += w[size_t(r2 + radius)] * line[size_t(std::clamp(q + r2, 0, len - 1))];
+          if (q >= radius && q + radius < len) {  // the kernel inside the line: no clamping (same sum, same order)
+            const float* at = line.data() + (q - radius);
+            for (int k = 0; k <= 2 * radius; ++k) acc += w[size_t(k)] * at[k];
+          } else {
+            for (int r2 = -radius; r2 <= radius; ++r2)
+              acc += w[size_t(r2 + radius)] * line[size_t(std::clamp(q + r2, 0, len - 1))];
+          }
           p[size_t(q) * s] = float(acc);
         }
       }
