@@ -1,6 +1,7 @@
 #include "fields/sizing_field.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <queue>
 
@@ -342,16 +343,24 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   const Range range = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, E.fine.size()), Range{},
       [&](const tbb::blocked_range<size_t>& r, Range acc) {
+        // The 8 cells around the previous point (a block's closest points mostly share them): their slots, or -1.
+        glm::ivec3 last(INT_MIN);
+        int64_t slots[8];
         for (size_t i = r.begin(); i < r.end(); ++i) {
           const glm::dvec3 u = glm::dvec3(glm::vec3(E.fine[i])) / grid.spacing;
           const glm::ivec3 v(glm::floor(u));
           const glm::dvec3 t = u - glm::dvec3(v);
+          if (v != last) {
+            for (int c = 0; c < 8; ++c) {
+              const glm::ivec3 w = v + glm::ivec3(c & 1, (c >> 1) & 1, c >> 2);
+              slots[c] = grid.inside(w.x, w.y, w.z) ? cell_slot(grid.index(w.x, w.y, w.z)) : -1;
+            }
+            last = v;
+          }
           double graded = 0, weight = 0;
           for (int c = 0; c < 8; ++c) {
             const glm::ivec3 o(c & 1, (c >> 1) & 1, c >> 2);
-            const glm::ivec3 w = v + o;
-            if (!grid.inside(w.x, w.y, w.z)) continue;
-            const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
+            const int64_t n = slots[c];
             if (n < 0) continue;
             const double wt = (o.x ? t.x : 1 - t.x) * (o.y ? t.y : 1 - t.y) * (o.z ? t.z : 1 - t.z);
             graded += wt * hc[size_t(n)];
