@@ -35,11 +35,20 @@ class PointBuckets {
   // Calls visit(i) for every point i in the 27 buckets around x: a superset of the points within width of x.
   template <class Visit>
   void for_each_candidate(const glm::dvec3& x, Visit&& visit) const {
+    for_each_candidate(x, width_, visit);
+  }
+  // The same, skipping the buckets farther than radius (<= width) from x: a superset of the points within radius,
+  // visited in the same order.
+  template <class Visit>
+  void for_each_candidate(const glm::dvec3& x, double radius, Visit&& visit) const {
     const glm::ivec3 home(glm::floor(x / width_));
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
-          const auto it = buckets_.find(cell_key(home + glm::ivec3(dx, dy, dz)));
+          const glm::ivec3 cell = home + glm::ivec3(dx, dy, dz);
+          const glm::dvec3 lo = glm::dvec3(cell) * width_, outside = glm::max(glm::max(lo - x, x - (lo + width_)), 0.0);
+          if (glm::dot(outside, outside) > radius * radius * (1.0 + 1e-12)) continue;  // (rounding: keep ties)
+          const auto it = buckets_.find(cell_key(cell));
           if (it == buckets_.end()) continue;
           for (uint32_t i : it->second) visit(i);
         }

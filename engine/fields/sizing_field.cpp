@@ -211,7 +211,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
         const double window = window_of(b);
         points.clear();
         normals.clear();
-        buckets[block_key[b] & 0xffff].for_each_candidate(position[b], [&](uint32_t i) {
+        buckets[block_key[b] & 0xffff].for_each_candidate(position[b], window, [&](uint32_t i) {
           const size_t q = m[i];
           if (glm::length(position[q] - position[b]) <= window && glm::dot(normal[q], normal[b]) > 0.5)
             points.push_back(position[q]), normals.push_back(normal[q]);
