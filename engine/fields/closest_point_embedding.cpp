@@ -451,7 +451,9 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 namespace {
 
 // project_to_feature, and where the start is a neighbour's closest point on the same feature, that projection's last
-// gradients (start_gradients, index units: a sample saved); gradients_out receives this one's on success.
+// gradients (start_gradients, index units: a sample saved). On success, value_out receives the field of the
+// feature's first material at `out` (from the last Newton sample: the embedding's restriction test compares the
+// other fields with it) and gradients_out this projection's gradients.
 bool project_from(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
                   int newton_iterations, int rounds, const glm::dvec3* start, const glm::dvec3* start_gradients,
                   bool give_up_stagnating, double* value_out, glm::dvec3* gradients_out) {
@@ -517,9 +519,8 @@ bool project_from(const IndicatorFields& F, const Feature& feature, const glm::d
 }  // namespace
 
 bool project_to_feature(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out,
-                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating,
-                        double* value_out) {
-  return project_from(F, feature, x0, out, newton_iterations, rounds, start, nullptr, give_up_stagnating, value_out,
+                        int newton_iterations, int rounds, const glm::dvec3* start, bool give_up_stagnating) {
+  return project_from(F, feature, x0, out, newton_iterations, rounds, start, nullptr, give_up_stagnating, nullptr,
                       nullptr);
 }
 
@@ -754,7 +755,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         E.fine[b * size_t(per_block) + size_t(q)] = glm::vec4(glm::vec3(cp), 0.0f);
         owner[b * size_t(per_block) + size_t(q)] = feature;
         // The next point starts from this one's closest point, and on fid from its gradients too.
-        warm_gradients_ok = landed && feature == fid && E.features[fid].kind != FeatureKind::quadruple_point;
+        warm_gradients_ok = landed && feature == fid;  // (quadruple-point blocks never start warm: warm_ok)
         if (warm_gradients_ok) std::copy(gradients, gradients + 4, warm_gradients);
         landed_in[b] |= uint8_t(landed);
       }

@@ -157,10 +157,8 @@ CurveSmoothing smooth_triple_curves(IndicatorFields& fields, const EmbeddingOpti
 // `start` (optional) is where the first Newton solve begins, e.g. a nearby point's closest point. Returns false when
 // the projection did not converge. give_up_stagnating: a Newton run whose residual stops shrinking fails at once
 // rather than after newton_iterations (where the feature does not exist it costs about 8 steps instead of 30).
-// value_out (optional): on success, the field of the feature's first material at `out`, from the last Newton sample
-// (the embedding's restriction test compares the other fields with it).
 bool project_to_feature(const IndicatorFields& fields, const Feature& feature, const glm::dvec3& local, glm::dvec3& out,
                         int newton_iterations = 30, int rounds = 3, const glm::dvec3* start = nullptr,
-                        bool give_up_stagnating = false, double* value_out = nullptr);
+                        bool give_up_stagnating = false);
 
 }  // namespace cpmesh::fields
