@@ -11,6 +11,7 @@
 #include "fields/volume_grid.h"
 #include "mesh/extract.h"
 #include "mesh/smooth.h"
+#include "mesh/volume_mesh.h"
 #include "ref/cp_lookup.h"
 
 namespace cpmesh::mesh {
@@ -254,23 +255,11 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       for (uint32_t v : T.tets[t]) c += T.points[v];
       regions.push_back({c / 4.0, int(material[t]) + 1});
     }
-    std::vector<int> markers;
-    for (const auto& pr : I.pair) markers.push_back(int(pr[0]) * 1000 + int(pr[1]) + 1);
     try {
-      Tets V = constrained_quality(I.vertices, I.triangles, markers, regions, options.volume);
-      // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
-      rep.tet_improvement = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
-                                         options.volume.max_radius_edge);
-      // What moving vertices left: slivers among kept surface vertices. Refill them around a new vertex, then let
-      // the vertex pass place the new vertices among their neighbours.
-      rep.sliver_split = split_slivers(V.points, V.tets, V.region, I.triangles, options.volume.min_dihedral,
-                                       options.volume.max_radius_edge);
-      if (rep.sliver_split.inserted + rep.sliver_split.flips > 0) {
-        const auto again = improve_tets(V.points, V.tets, I.vertices.size(), options.volume.min_dihedral,
-                                        options.volume.max_radius_edge);
-        rep.tet_improvement.min_dihedral_after = again.min_dihedral_after;
-        rep.tet_improvement.moves += again.moves;
-      }
+      MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
+      rep.tet_improvement = meshes.improvement;
+      rep.sliver_split = meshes.sliver_split;
+      const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.
       auto& out = result.volume;
@@ -283,7 +272,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
         }
         return renumber[v];
       };
-      const auto fallback = label_tets(F.fields, V);
+      // Tets in no seeded region (none expected: every enclosed component has a seed) take the fields' material.
+      std::vector<uint16_t> fallback;
+      if (V.region.size() != V.tets.size() || std::count(V.region.begin(), V.region.end(), 0) > 0)
+        fallback = label_tets(F.fields, V);
       std::vector<std::vector<std::array<uint32_t, 4>>> per_material(labels.size());
       for (size_t i = 0; i < V.tets.size(); ++i) {
         const int region = V.region.empty() ? 0 : V.region[i];

@@ -13,7 +13,7 @@
 // Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
 // "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of
 // the particles, tet labels, repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh"
-// (TetGen -pqAY bounded by the interface triangles, then the sliver pass).
+// (per material: TetGen -pqAY bounded by its interface triangles, then the sliver passes; volume_mesh.h).
 #include <array>
 #include <functional>
 #include <stdexcept>

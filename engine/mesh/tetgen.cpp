@@ -5,13 +5,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
-#include <csignal>
-
 #include <tetgen.h>
+
+#include "mesh/child_process.h"
 
 namespace cpmesh::mesh {
 
@@ -62,95 +58,6 @@ void run(const std::string& switches, tetgenio& in, tetgenio& out) {
   }
 }
 
-// TetGen 1.5 as Debian builds it frees its mesh when it gives up (terminatetetgen) and again while tetrahedralize
-// unwinds, so a failure in boundary recovery (facets that intersect, say) is a double free that kills the process
-// instead of an error it could report. Runs that can fail on their input therefore go to a forked child: it sends
-// the output, or TetGen's error, back through a pipe; a child that dies makes a failed run with the signal named.
-template <class T>
-void put(std::string& buf, const std::vector<T>& v) {
-  const uint64_t n = v.size();
-  buf.append(reinterpret_cast<const char*>(&n), sizeof n);
-  buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-}
-template <class T>
-bool get(const std::string& buf, size_t& at, std::vector<T>& v) {
-  uint64_t n = 0;
-  if (buf.size() - at < sizeof n) return false;
-  std::memcpy(&n, buf.data() + at, sizeof n);
-  at += sizeof n;
-  if ((buf.size() - at) / sizeof(T) < n) return false;
-  v.resize(size_t(n));
-  std::memcpy(static_cast<void*>(v.data()), buf.data() + at, size_t(n) * sizeof(T));
-  at += size_t(n) * sizeof(T);
-  return true;
-}
-
-Tets run_forked(const std::string& switches, tetgenio& in) {
-  int fds[2];
-  if (pipe(fds) != 0) throw std::runtime_error(std::string("TetGen: cannot make a pipe: ") + std::strerror(errno));
-  std::fflush(nullptr);
-  const pid_t pid = fork();
-  if (pid < 0) {
-    close(fds[0]);
-    close(fds[1]);
-    throw std::runtime_error(std::string("TetGen: cannot fork: ") + std::strerror(errno));
-  }
-  if (pid == 0) {  // the child: run, send, leave without destructors or atexit handlers
-    close(fds[0]);
-    for (int sig : {SIGSEGV, SIGABRT, SIGBUS, SIGFPE, SIGILL}) std::signal(sig, SIG_DFL);  // no inherited crash reports
-    std::string buf;
-    try {
-      tetgenio out;
-      run(switches, in, out);
-      const Tets t = read_output(out);
-      buf.push_back('\0');
-      put(buf, t.points);
-      put(buf, t.tets);
-      put(buf, t.region);
-      put(buf, t.faces);
-      put(buf, t.face_marker);
-    } catch (const std::exception& e) {
-      buf.assign(1, '\1');
-      buf += e.what();
-    }
-    for (size_t at = 0; at < buf.size();) {
-      const ssize_t w = write(fds[1], buf.data() + at, buf.size() - at);
-      if (w <= 0) {
-        if (w < 0 && errno == EINTR) continue;
-        _exit(3);
-      }
-      at += size_t(w);
-    }
-    _exit(0);
-  }
-  close(fds[1]);
-  std::string buf;
-  char chunk[1 << 16];
-  for (;;) {
-    const ssize_t r = read(fds[0], chunk, sizeof chunk);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) break;
-    buf.append(chunk, size_t(r));
-  }
-  close(fds[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (WIFSIGNALED(status))
-    throw std::runtime_error("TetGen (" + switches + ") died with signal " + std::to_string(WTERMSIG(status)) + " (" +
-                             strsignal(WTERMSIG(status)) + "); it does so when it gives up on its input, e.g. when "
-                             "input facets intersect");
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || buf.empty())
-    throw std::runtime_error("TetGen (" + switches + ") ended without a result");
-  if (buf[0] == '\1') throw std::runtime_error(buf.substr(1));
-  Tets t;
-  size_t at = 1;
-  if (!get(buf, at, t.points) || !get(buf, at, t.tets) || !get(buf, at, t.region) || !get(buf, at, t.faces) ||
-      !get(buf, at, t.face_marker) || at != buf.size())
-    throw std::runtime_error("TetGen (" + switches + "): truncated result from the child process");
-  return t;
-}
-
 }  // namespace
 
 Tets delaunay(const std::vector<glm::dvec3>& points) {
@@ -176,14 +83,46 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
   return t;
 }
 
-Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                         const std::vector<int>& markers, const std::vector<Region>& regions,
-                         const QualityOptions& options) {
+void check_quality_options(const QualityOptions& options) {
   // TetGen's refinement is only known to end for looser bounds (1.1/20 ran without end on a small sphere).
   if (!(options.max_radius_edge >= 1.2) || !(options.min_dihedral <= 18.0) || options.min_dihedral < 0)
     throw std::invalid_argument("volume mesh: max radius-edge ratio must be >= 1.2 and min dihedral angle in [0, 18] "
                                 "degrees, got " + std::to_string(options.max_radius_edge) + " and " +
                                 std::to_string(options.min_dihedral));
+}
+
+void put_tets(ByteWriter& w, const Tets& t) {
+  w.put(t.points);
+  w.put(t.tets);
+  w.put(t.region);
+  w.put(t.faces);
+  w.put(t.face_marker);
+}
+
+bool get_tets(ByteReader& r, Tets& t) {
+  return r.get(t.points) && r.get(t.tets) && r.get(t.region) && r.get(t.faces) && r.get(t.face_marker);
+}
+
+Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                         const std::vector<int>& markers, const std::vector<Region>& regions,
+                         const QualityOptions& options, const std::vector<glm::dvec3>& holes) {
+  check_quality_options(options);  // in this process, so that it stays a std::invalid_argument
+  const std::string out = run_in_child("TetGen", [&] {
+    ByteWriter w;
+    put_tets(w, constrained_quality_in_this_process(points, triangles, markers, regions, options, holes));
+    return w.take();
+  });
+  Tets t;
+  ByteReader r(out);
+  if (!get_tets(r, t) || !r.done()) throw std::runtime_error("TetGen: truncated result from the child process");
+  return t;
+}
+
+Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
+                                         const std::vector<std::array<uint32_t, 3>>& triangles,
+                                         const std::vector<int>& markers, const std::vector<Region>& regions,
+                                         const QualityOptions& options, const std::vector<glm::dvec3>& holes) {
+  check_quality_options(options);
   // Only the triangles' vertices go to TetGen. The caller's list also holds points no triangle uses (particles left
   // out near junctions, merged duplicates), and TetGen drops an input point that coincides with another from its
   // output list, which would shift every later index.
@@ -223,11 +162,17 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
     in.regionlist[5 * r + 3] = regions[r].attribute;
     in.regionlist[5 * r + 4] = -1;
   }
+  in.numberofholes = int(holes.size());
+  in.holelist = new REAL[holes.size() * 3];
+  for (size_t h = 0; h < holes.size(); ++h)
+    for (int a = 0; a < 3; ++a) in.holelist[3 * h + size_t(a)] = holes[h][a];
   std::ostringstream sw;
   sw << "pq" << options.max_radius_edge << "/" << options.min_dihedral << "AQz";
   if (options.max_volume > 0) sw << "a" << options.max_volume;
   if (options.keep_surface) sw << "Y";
-  Tets t = run_forked(sw.str(), in);
+  tetgenio tetgen_out;
+  run(sw.str(), in, tetgen_out);
+  Tets t = read_output(tetgen_out);
   // TetGen keeps the input points first, in order, unless it jettisons some: points left outside every region,
   // which happens when a material's boundary is not closed and its region leaks into the outside. The caller's
   // triangles and fixed vertices would then index the wrong points.

@@ -36,10 +36,25 @@ struct Region {
 
 // Quality constrained tetrahedralization of the closed triangle surfaces `triangles` over `points` (TetGen
 // "pq/AY"), each region labelled by the attribute of the seed inside it; space outside every closed surface is not
-// meshed. Markers are carried to the output faces. Throws std::runtime_error with TetGen's reason on failure.
+// meshed, nor is the region around each point of `holes`. Markers are carried to the output faces. Runs in a child
+// process (child_process.h). Throws std::runtime_error with TetGen's reason on failure.
 // Output numbering: `points` first, unchanged (those no triangle uses are in no tet), then the points TetGen added.
 Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                          const std::vector<int>& markers, const std::vector<Region>& regions,
-                         const QualityOptions& options);
+                         const QualityOptions& options, const std::vector<glm::dvec3>& holes = {});
+// The same in this process, for a job that already runs in a child (a failing TetGen can kill its process).
+Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
+                                         const std::vector<std::array<uint32_t, 3>>& triangles,
+                                         const std::vector<int>& markers, const std::vector<Region>& regions,
+                                         const QualityOptions& options, const std::vector<glm::dvec3>& holes = {});
+
+// Throws std::invalid_argument for bounds TetGen's refinement is not known to meet.
+void check_quality_options(const QualityOptions& options);
+
+// Tets as bytes, to come back from a child process.
+class ByteWriter;
+class ByteReader;
+void put_tets(ByteWriter& w, const Tets& t);
+bool get_tets(ByteReader& r, Tets& t);  // false: the bytes ended early
 
 }  // namespace cpmesh::mesh

@@ -2,7 +2,11 @@
 // quality goes up, the worst triangle does not get worse, vertices stay on the surface, connectivity is unchanged.
 #include <doctest/doctest.h>
 
+#include <map>
 #include <random>
+#include <set>
+
+#include <tbb/global_control.h>
 
 #include "fields/fields_stage.h"
 #include "fields_volumes.h"
@@ -10,6 +14,7 @@
 #include "mesh/quality.h"
 #include "mesh/smooth.h"
 #include "mesh/tetgen.h"
+#include "mesh/volume_mesh.h"
 #include "ref/cp_lookup.h"
 
 using namespace cpmesh;
@@ -375,4 +380,120 @@ TEST_CASE("delaunay: coincident points are meshed once and every index still nam
   CHECK(volume == doctest::Approx(1.0).epsilon(1e-12));
   CHECK(!duplicate_used);
   CHECK(T.points == points);
+}
+
+namespace {
+
+// Box faces as two triangles each, over a shared vertex list (a vertex at the same place is one vertex).
+struct BoxSurfaces {
+  std::vector<glm::dvec3> points;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  std::vector<std::array<uint16_t, 2>> pair;
+  std::map<std::array<double, 3>, uint32_t> at;
+  uint32_t vertex(const glm::dvec3& p) {
+    const auto [it, added] = at.emplace(std::array<double, 3>{p.x, p.y, p.z}, uint32_t(points.size()));
+    if (added) points.push_back(p);
+    return it->second;
+  }
+  // The face of box [lo, hi] on `axis` at side `high`, between materials a < b, as unit squares (integer corners).
+  void face(glm::dvec3 lo, glm::dvec3 hi, int axis, bool high, uint16_t a, uint16_t b) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    auto corner = [&](double cu, double cv) {
+      glm::dvec3 p;
+      p[axis] = high ? hi[axis] : lo[axis];
+      p[u] = cu;
+      p[v] = cv;
+      return vertex(p);
+    };
+    for (double cu = lo[u]; cu < hi[u]; ++cu)
+      for (double cv = lo[v]; cv < hi[v]; ++cv) {
+        const uint32_t p00 = corner(cu, cv), p10 = corner(cu + 1, cv), p11 = corner(cu + 1, cv + 1),
+                       p01 = corner(cu, cv + 1);
+        triangles.push_back({p00, p10, p11});
+        triangles.push_back({p00, p11, p01});
+        pair.push_back({a, b});
+        pair.push_back({a, b});
+      }
+  }
+};
+
+}  // namespace
+
+TEST_CASE("mesh_materials: three boxes, one holding two that touch, meshed per material, conforming on every interface") {
+  // Material 1 is the box [0,6]^3 with two boxes inside it: material 2 = [1,3]x[1,5]x[1,5] and material 3 =
+  // [3,5]x[1,5]x[1,5], which share the face x = 3. Material 0 is the unmeshed outside.
+  BoxSurfaces s;
+  const glm::dvec3 o0(0.0), o1(6.0), a0(1.0), a1(3.0, 5.0, 5.0), b0(3.0, 1.0, 1.0), b1(5.0);
+  for (int axis = 0; axis < 3; ++axis)
+    for (bool high : {false, true}) {
+      s.face(o0, o1, axis, high, 0, 1);
+      if (!(axis == 0 && high)) s.face(a0, a1, axis, high, 1, 2);
+      if (!(axis == 0 && !high)) s.face(b0, b1, axis, high, 1, 3);
+    }
+  s.face(a0, a1, 0, true, 2, 3);
+  REQUIRE(s.points.size() == (343 - 125) + (125 - 27) + 9);  // the outer box's, the inner ones', the shared face's
+  const std::vector<mesh::Region> seeds = {{glm::dvec3(0.5), 2}, {glm::dvec3(2.0, 3.0, 3.0), 3}, {glm::dvec3(4.0, 3.0, 3.0), 4}};
+  const std::vector<uint16_t> labels = {0, 10, 20, 30};
+  const mesh::QualityOptions options;
+  const auto r = mesh::mesh_materials(s.points, s.triangles, s.pair, seeds, labels, options);
+  const auto& T = r.tets;
+  REQUIRE(T.region.size() == T.tets.size());
+  CHECK(std::equal(s.points.begin(), s.points.end(), T.points.begin()));
+  std::map<int, double> volume;
+  std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;  // sorted corners -> regions of the tets on it
+  for (size_t i = 0; i < T.tets.size(); ++i) {
+    const auto& t = T.tets[i];
+    volume[T.region[i]] += std::fabs(glm::dot(T.points[t[1]] - T.points[t[0]],
+                                              glm::cross(T.points[t[2]] - T.points[t[0]], T.points[t[3]] - T.points[t[0]]))) / 6.0;
+    for (int c = 0; c < 4; ++c) {
+      std::array<uint32_t, 3> f = {t[size_t((c + 1) % 4)], t[size_t((c + 2) % 4)], t[size_t((c + 3) % 4)]};
+      std::sort(f.begin(), f.end());
+      faces[f].insert(T.region[i]);
+    }
+  }
+  MESSAGE(T.tets.size() << " tets, " << T.points.size() - s.points.size() << " points added; min dihedral "
+                        << r.improvement.min_dihedral_before << " -> " << r.improvement.min_dihedral_after);
+  CHECK(volume.size() == 3);  // regions 2, 3, 4 only: no tet outside, none unlabelled
+  CHECK(volume[2] == doctest::Approx(216.0 - 64.0));
+  CHECK(volume[3] == doctest::Approx(32.0));
+  CHECK(volume[4] == doctest::Approx(32.0));
+  // Every interface triangle is a face of one tet of each meshed material beside it: the meshes conform.
+  for (size_t i = 0; i < s.triangles.size(); ++i) {
+    auto f = s.triangles[i];
+    std::sort(f.begin(), f.end());
+    std::multiset<int> expect;
+    for (uint16_t m : s.pair[i])
+      if (m > 0) expect.insert(int(m) + 1);
+    CHECK(faces[f] == expect);
+  }
+  CHECK(mesh::tet_stats(T.points, T.tets).min_dihedral_deg >= 10.0);
+  CHECK(r.sliver_split.failed == 0);
+
+  // One thread gives the same mesh: the runs are merged in material order.
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    const auto serial = mesh::mesh_materials(s.points, s.triangles, s.pair, seeds, labels, options);
+    CHECK(serial.tets.points == T.points);
+    CHECK(serial.tets.tets == T.tets);
+    CHECK(serial.tets.region == T.region);
+  }
+
+  // A triangle piercing the faces of materials 1 and 2: the error names a material, and nothing crashes.
+  auto points = s.points;
+  auto triangles = s.triangles;
+  auto pair = s.pair;
+  points.push_back({0.5, 2.0, 2.0});
+  points.push_back({2.5, 2.0, 2.0});
+  points.push_back({1.5, 2.0, 4.0});
+  triangles.push_back({uint32_t(points.size() - 3), uint32_t(points.size() - 2), uint32_t(points.size() - 1)});
+  pair.push_back({1, 2});
+  bool thrown = false;
+  try {
+    mesh::mesh_materials(points, triangles, pair, seeds, labels, options);
+  } catch (const std::runtime_error& e) {
+    thrown = true;
+    MESSAGE("pierced: " << std::string(e.what()));
+    CHECK(std::string(e.what()).find("volume mesh of material") != std::string::npos);
+  }
+  CHECK(thrown);
 }

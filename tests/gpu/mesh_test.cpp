@@ -229,6 +229,34 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   CHECK(ce.max_whole_edge < 0.8);  // measured 0.70: the south pole's quadruple point, which the 40^3 data puts anywhere in a voxel
   CHECK(rep.volume_error.empty());
   CHECK(std::set<uint16_t>(r.volume.tet_material.begin(), r.volume.tet_material.end()) == std::set<uint16_t>{1, 2, 3, 4});
+  // The materials are meshed apart (volume_mesh.h) and must conform: every interface triangle is a face of exactly one
+  // tet of each meshed material beside it (the outside, label 0, has none), and no other tet face lies on it.
+  {
+    std::map<std::array<uint32_t, 3>, std::multiset<uint16_t>> on_face;
+    for (const auto& tri : r.volume.triangles) {
+      auto f = tri;
+      std::sort(f.begin(), f.end());
+      on_face[f];
+    }
+    for (size_t i = 0; i < r.volume.tets.size(); ++i)
+      for (int c = 0; c < 4; ++c) {
+        const auto& t = r.volume.tets[i];
+        std::array<uint32_t, 3> f = {t[size_t((c + 1) % 4)], t[size_t((c + 2) % 4)], t[size_t((c + 3) % 4)]};
+        std::sort(f.begin(), f.end());
+        const auto it = on_face.find(f);
+        if (it != on_face.end()) it->second.insert(r.volume.tet_material[i]);
+      }
+    size_t wrong = 0;
+    for (size_t i = 0; i < r.volume.triangles.size(); ++i) {
+      auto f = r.volume.triangles[i];
+      std::sort(f.begin(), f.end());
+      std::multiset<uint16_t> expect;
+      for (uint16_t l : r.volume.triangle_pair[i])
+        if (l != 0) expect.insert(l);
+      wrong += on_face[f] != expect;
+    }
+    CHECK(wrong == 0);
+  }
 
   // The preview shows the ball in both halves, in several pair colours.
   const auto scene = render::preview_scene(r.surfaces, 400, 200);

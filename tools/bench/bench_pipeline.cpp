@@ -92,7 +92,12 @@ int main(int argc, char** argv) {
       const auto t0 = std::chrono::steady_clock::now();
       mesh::MeshResult r;
       try {
-        r = mesh::mesh_volume(ctx, volume, options);
+        // Each finished stage on stderr (the table and JSON stay on stdout): a long run shows where it is.
+        r = mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) {
+          if (e.seconds < 0) return;
+          std::fprintf(stderr, "  %s: %s %.2f s, %s\n", spec.c_str(), e.stage.c_str(), e.seconds, e.detail.c_str());
+          std::fflush(stderr);
+        });
       } catch (const mesh::ParticleBudgetError& e) {
         std::printf("%-16s stopped: %s\n", spec.c_str(), e.what());
         std::printf("%s\n", nlohmann::json{{"benchmark", "pipeline"}, {"volume", spec}, {"device", ctx.info().name},

@@ -1,0 +1,40 @@
+#pragma once
+// The tetrahedral mesh of every material, bounded by the interface triangles and conforming to them.
+//
+// Each material is meshed on its own: one TetGen run (-pqAY) over the interface triangles that bound it, with the
+// seeds of its components as regions and the seeds of every other material's components as holes (so cavities held
+// by other materials are carved out, not meshed twice), then the sliver passes of smooth.h (improve_tets,
+// split_slivers) on its tets. -Y puts no point on an input triangle, so two materials meet on exactly the interface
+// triangles, as faces of tets on both sides, and the runs are independent: they go in parallel (the thread pool's
+// limit, largest boundary first), each in a child process because a failing TetGen can kill its process
+// (child_process.h). The result does not depend on the thread count: the runs are merged in material order.
+//
+// Inputs:  points     the surface vertices (those no triangle uses are in no tet)
+//          triangles  the interface triangles, pair[i] the two materials (indices) on either side of triangle i
+//          seeds      a point inside every enclosed component, attribute = its material index + 1
+//                     (component_representatives in extract.h)
+//          labels     the materials' labels, for error messages
+// Outputs: tets.points  `points` first, unchanged, then the points the runs added, material by material
+//          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "mesh/smooth.h"
+#include "mesh/tetgen.h"
+
+namespace cpmesh::mesh {
+
+struct MaterialMeshes {
+  Tets tets;
+  TetImproveReport improvement;  // smallest dihedral angles over all materials, moves summed
+  SliverSplitReport sliver_split;
+};
+
+MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                              const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,
+                              const std::vector<uint16_t>& labels, const QualityOptions& options);
+
+}  // namespace cpmesh::mesh
