@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 namespace cpmesh::mesh {
@@ -25,6 +26,28 @@ glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dve
 }
 
 Adjacency build_adjacency(const Tets& T) {
+  if (T.neighbours.size() == T.tets.size() * 4) {
+    // TetGen's neighbours: for each pair, the corner of each tet that the other lacks names the shared face. Found
+    // by vertices, so TetGen's slot order does not matter.
+    Adjacency adj;
+    adj.neighbour.assign(T.tets.size() * 4, Adjacency::kHull);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, T.tets.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t < r.end(); ++t)
+        for (int s = 0; s < 4; ++s) {
+          const int32_t n = T.neighbours[t * 4 + size_t(s)];
+          if (n < 0) continue;
+          const auto &a = T.tets[t], &b = T.tets[size_t(n)];
+          auto lacking = [](const std::array<uint32_t, 4>& x, const std::array<uint32_t, 4>& y) {
+            for (int c = 0; c < 4; ++c)
+              if (std::find(y.begin(), y.end(), x[size_t(c)]) == y.end()) return c;
+            return -1;
+          };
+          const int ca = lacking(a, b), cb = lacking(b, a);
+          if (ca >= 0 && cb >= 0) adj.neighbour[t * 4 + size_t(ca)] = uint32_t(size_t(n) * 4 + size_t(cb));
+        }
+    });
+    return adj;
+  }
   std::vector<std::pair<FaceKey, uint32_t>> faces;  // (face, tet * 4 + corner)
   faces.reserve(T.tets.size() * 4);
   for (size_t t = 0; t < T.tets.size(); ++t)

@@ -33,6 +33,7 @@ struct Adjacency {
   static constexpr uint32_t kHull = ~0u;
   std::vector<uint32_t> neighbour;
 };
+// From tets.neighbours where delaunay() filled them (linear, parallel), else by sorting the faces.
 Adjacency build_adjacency(const Tets& tets);
 // The face of tet tc / 4 opposite corner tc % 4, ordered so its normal points out of the tet.
 std::array<uint32_t, 3> outward_face(const Tets& tets, uint32_t tc);

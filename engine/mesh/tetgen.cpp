@@ -33,6 +33,7 @@ Tets read_output(const tetgenio& out) {
     if (out.numberoftetrahedronattributes > 0)
       t.region.push_back(int(out.tetrahedronattributelist[i * out.numberoftetrahedronattributes]));
   }
+  if (out.neighborlist) t.neighbours.assign(out.neighborlist, out.neighborlist + size_t(out.numberoftetrahedra) * 4);
   for (int i = 0; i < out.numberoftrifaces; ++i) {
     t.faces.push_back({uint32_t(out.trifacelist[3 * i]), uint32_t(out.trifacelist[3 * i + 1]),
                        uint32_t(out.trifacelist[3 * i + 2])});
@@ -64,7 +65,7 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
   if (points.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
   tetgenio in, out;
   set_points(in, points);
-  run("Qz", in, out);
+  run("Qzn", in, out);
   Tets t = read_output(out);
   // TetGen lists the points it kept, in input order, and drops one that coincides with an earlier one; that shifted
   // every later index (seen on the 64^3 shells: two particles of the one-voxel shell at one float position
@@ -97,10 +98,11 @@ void put_tets(ByteWriter& w, const Tets& t) {
   w.put(t.region);
   w.put(t.faces);
   w.put(t.face_marker);
+  w.put(t.neighbours);
 }
 
 bool get_tets(ByteReader& r, Tets& t) {
-  return r.get(t.points) && r.get(t.tets) && r.get(t.region) && r.get(t.faces) && r.get(t.face_marker);
+  return r.get(t.points) && r.get(t.tets) && r.get(t.region) && r.get(t.faces) && r.get(t.face_marker) && r.get(t.neighbours);
 }
 
 Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,

@@ -16,10 +16,12 @@ struct Tets {
   std::vector<int> region;                      // per tet: region attribute (constrained meshes), else empty
   std::vector<std::array<uint32_t, 3>> faces;   // boundary/interface faces kept (constrained meshes)
   std::vector<int> face_marker;                 // per face: the input facet marker
+  std::vector<int32_t> neighbours;              // delaunay(): 4 per tet, the tets across its faces (-1: hull), in
+                                                // TetGen's order; else empty
 };
 
-// Delaunay tetrahedralization of a point set (TetGen "Qz"). Of points at exactly the same place only the first is
-// meshed; every output index refers to the input points.
+// Delaunay tetrahedralization of a point set (TetGen "Qzn", with the tets' neighbours). Of points at exactly the
+// same place only the first is meshed; every output index refers to the input points.
 Tets delaunay(const std::vector<glm::dvec3>& points);
 
 struct QualityOptions {

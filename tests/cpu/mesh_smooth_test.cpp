@@ -86,6 +86,25 @@ TEST_CASE("build_adjacency: two tets meet on their shared face, with vertex indi
   CHECK(shared == 2);
 }
 
+TEST_CASE("build_adjacency: TetGen's neighbours give the same adjacency as sorting the faces") {
+  // 3000 random points with one duplicate (delaunay() drops it and renumbers): the linear path from the neighbours
+  // TetGen reports must match the sort of every tet face, slot for slot.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 10.0);
+  std::vector<glm::dvec3> points;
+  for (int i = 0; i < 3000; ++i) points.push_back({u(rng), u(rng), u(rng)});
+  points.push_back(points[17]);
+  const auto T = mesh::delaunay(points);
+  REQUIRE(T.neighbours.size() == T.tets.size() * 4);
+  auto sorted = T;
+  sorted.neighbours.clear();
+  const auto fast = mesh::build_adjacency(T), slow = mesh::build_adjacency(sorted);
+  CHECK(fast.neighbour == slow.neighbour);
+  const size_t hull = size_t(std::count(slow.neighbour.begin(), slow.neighbour.end(), mesh::Adjacency::kHull));
+  CHECK(hull > 100);
+  CHECK(hull < slow.neighbour.size() / 10);
+}
+
 TEST_CASE("hull_materials: a coarse hull under a curved surface still sees the outside material") {
   // An icosahedron on a sphere of radius 10 voxels: its faces lie up to 2 voxels inside the sphere, so half a voxel
   // beyond them is still the sphere's material. Every hull face must see the background instead, or the sphere's
