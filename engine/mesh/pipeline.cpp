@@ -110,8 +110,11 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population,
                                   [&](const particles::RoundReport& r) {
                                     iterations_so_far += r.iterations;
-                                    update("round " + std::to_string(r.round) + ", " + count(r.total) +
-                                           " particles, " + std::to_string(iterations_so_far) + " iterations");
+                                    char times[96];
+                                    std::snprintf(times, sizeof times, " (this run %.1f s, check %.1f s, add/delete %.1f s)",
+                                                  r.advect_seconds, r.check_seconds, r.host_seconds);
+                                    update("round " + std::to_string(r.round) + ", " + count(r.total) + " particles, " +
+                                           std::to_string(iterations_so_far) + " iterations" + times);
                                   });
   rep.protected_particles =
       particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);

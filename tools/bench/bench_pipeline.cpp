@@ -92,10 +92,13 @@ int main(int argc, char** argv) {
       const auto t0 = std::chrono::steady_clock::now();
       mesh::MeshResult r;
       try {
-        // Each finished stage on stderr (the table and JSON stay on stdout): a long run shows where it is.
+        // Each finished stage, and the progress within one, on stderr (the table and JSON stay on stdout): a long run shows where it is.
         r = mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) {
-          if (e.seconds < 0) return;
-          std::fprintf(stderr, "  %s: %s %.2f s, %s\n", spec.c_str(), e.stage.c_str(), e.seconds, e.detail.c_str());
+          if (e.seconds < 0) {
+            if (!e.detail.empty()) std::fprintf(stderr, "  %s: %s: %s\n", spec.c_str(), e.stage.c_str(), e.detail.c_str());
+          } else {
+            std::fprintf(stderr, "  %s: %s %.2f s, %s\n", spec.c_str(), e.stage.c_str(), e.seconds, e.detail.c_str());
+          }
           std::fflush(stderr);
         });
       } catch (const mesh::ParticleBudgetError& e) {
