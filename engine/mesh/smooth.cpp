@@ -1,6 +1,7 @@
 #include "mesh/smooth.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <set>
@@ -77,6 +78,34 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
     return worst;
   };
 
+  // Greedy colouring in vertex order: two vertices of one triangle never share a colour. by_colour lists the
+  // vertices colour by colour (in vertex order within one), colour c at [colour_begin[c], colour_begin[c + 1]).
+  std::vector<uint32_t> colour(nv, 0);
+  uint32_t colours = 0;
+  {
+    std::vector<uint32_t> taken;  // taken[c] == v + 1: colour c is used by a neighbour of v
+    for (uint32_t v = 0; v < nv; ++v) {
+      for (uint32_t t : around[v])
+        for (uint32_t u : T[t])
+          if (u < v) {
+            if (taken.size() <= colour[u]) taken.resize(colour[u] + 1, 0);
+            taken[colour[u]] = v + 1;
+          }
+      uint32_t c = 0;
+      while (c < taken.size() && taken[c] == v + 1) ++c;
+      colour[v] = c;
+      colours = std::max(colours, c + 1);
+    }
+  }
+  std::vector<size_t> colour_begin(colours + 1, 0);
+  for (uint32_t v = 0; v < nv; ++v) ++colour_begin[colour[v] + 1];
+  for (uint32_t c = 0; c < colours; ++c) colour_begin[c + 1] += colour_begin[c];
+  std::vector<uint32_t> by_colour(nv);
+  {
+    std::vector<size_t> next(colour_begin.begin(), colour_begin.end() - 1);
+    for (uint32_t v = 0; v < nv; ++v) by_colour[next[colour[v]]++] = v;
+  }
+
   std::vector<glm::dvec3> proposal(nv);
   std::vector<uint8_t> has(nv);
   for (int round = 0; round < options.rounds; ++round) {
@@ -116,28 +145,40 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
       }
     });
     // Accepted one vertex at a time against the current positions: no triangle may flip, the worst one around the
-    // vertex may not get worse.
+    // vertex may not get worse. Vertices of one colour share no triangle, so each colour's are checked in parallel
+    // (the same result on any number of threads).
     const std::vector<glm::dvec3> start = V;
-    size_t moves = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (!has[v]) continue;
-      const glm::dvec3 old = V[v];
-      const double before = worst_around(v);
-      std::vector<glm::dvec3> normals;
-      for (uint32_t t : around[v]) normals.push_back(normal_of(V[T[t][0]], V[T[t][1]], V[T[t][2]]));
-      V[v] = proposal[v];
-      bool ok = worst_around(v) >= before;
-      for (size_t k = 0; k < around[v].size() && ok; ++k) {
-        const auto& tri = T[around[v][k]];
-        ok = glm::dot(normal_of(V[tri[0]], V[tri[1]], V[tri[2]]), normals[k]) > 0;
-      }
-      if (ok) {
-        ++moves;
-      } else {
-        V[v] = old;
-        ++report.refused;
-      }
-    }
+    std::atomic<size_t> accepted{0}, refused{0};
+    for (size_t c = 0; c + 1 < colour_begin.size(); ++c)
+      tbb::parallel_for(tbb::blocked_range<size_t>(colour_begin[c], colour_begin[c + 1], 512),
+                        [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<glm::dvec3> normals;
+        size_t ok_here = 0, refused_here = 0;
+        for (size_t k = r.begin(); k < r.end(); ++k) {
+          const uint32_t v = by_colour[k];
+          if (!has[v]) continue;
+          const glm::dvec3 old = V[v];
+          const double before = worst_around(v);
+          normals.clear();
+          for (uint32_t t : around[v]) normals.push_back(normal_of(V[T[t][0]], V[T[t][1]], V[T[t][2]]));
+          V[v] = proposal[v];
+          bool ok = worst_around(v) >= before;
+          for (size_t i = 0; i < around[v].size() && ok; ++i) {
+            const auto& tri = T[around[v][i]];
+            ok = glm::dot(normal_of(V[tri[0]], V[tri[1]], V[tri[2]]), normals[i]) > 0;
+          }
+          if (ok) {
+            ++ok_here;
+          } else {
+            V[v] = old;
+            ++refused_here;
+          }
+        }
+        accepted += ok_here;
+        refused += refused_here;
+      });
+    size_t moves = accepted;
+    report.refused += refused;
     const size_t undone = undo_crossings(start, T, V);
     moves -= undone;
     report.refused += undone;

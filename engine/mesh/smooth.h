@@ -5,7 +5,9 @@
 // vertices, in the surface) or the midpoint of its two curve neighbours (triple-curve vertices, along the curve),
 // puts it back on its feature with the Newton projection of the smooth fields (the embedding's own construction), and
 // keeps the move only if none of its triangles flips and the worst radius ratio among them does not get worse
-// ("smart" Laplacian smoothing). Quadruple points do not move. Connectivity is unchanged, so the interfaces stay
+// ("smart" Laplacian smoothing), checked against the moves already kept: vertex by vertex within a colour class (no
+// two vertices of one triangle share a colour, so a class is checked in parallel), class by class. Quadruple points
+// do not move. Connectivity is unchanged, so the interfaces stay
 // conforming along the curves and manifold where they were.
 #include <array>
 #include <cstdint>
