@@ -81,10 +81,49 @@ glm::ivec3 HostIndex::cell_of(const glm::vec3& p) const { return glm::ivec3(glm:
 
 uint64_t HostIndex::key(const glm::ivec3& c) { return fields::cell_key(c); }
 
+namespace {
+size_t cell_hash(uint64_t key) {  // splitmix64's finaliser
+  key ^= key >> 30;
+  key *= 0xbf58476d1ce4e5b9ull;
+  key ^= key >> 27;
+  key *= 0x94d049bb133111ebull;
+  return size_t(key ^ (key >> 31));
+}
+}  // namespace
+
+size_t HostIndex::find(uint64_t k) const {
+  if (table_.empty()) return kNoSlot;
+  const size_t mask = table_.size() - 1;
+  for (size_t slot = cell_hash(k) & mask;; slot = (slot + 1) & mask) {
+    if (table_[slot].head == kNone) return kNoSlot;
+    if (table_[slot].key == k) return slot;
+  }
+}
+
 uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
   const uint32_t id = uint32_t(entries_.size());
-  entries_.push_back({particle, feature, true});
-  cells_[key(cell_of(glm::vec3(particle)))].push_back(id);
+  entries_.push_back({particle, feature, true, kNone});
+  if (2 * (cells_used_ + 1) > table_.size()) {  // grow: rehash the cells into a table twice the size
+    std::vector<Cell> old(std::max<size_t>(1024, table_.size() * 2));
+    old.swap(table_);
+    for (const Cell& c : old) {
+      if (c.head == kNone) continue;
+      size_t slot = cell_hash(c.key) & (table_.size() - 1);
+      while (table_[slot].head != kNone) slot = (slot + 1) & (table_.size() - 1);
+      table_[slot] = c;
+    }
+  }
+  const uint64_t k = key(cell_of(glm::vec3(particle)));
+  size_t slot = cell_hash(k) & (table_.size() - 1);
+  while (table_[slot].head != kNone && table_[slot].key != k) slot = (slot + 1) & (table_.size() - 1);
+  Cell& c = table_[slot];
+  if (c.head == kNone) {
+    c = {k, id, id};
+    ++cells_used_;
+  } else {
+    entries_[c.tail].next = id;
+    c.tail = id;
+  }
   h_max_ = std::max(h_max_, particle.w);
   ++live_;
   return id;
@@ -93,9 +132,7 @@ uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
 void HostIndex::remove(uint32_t id) {
   Entry& e = entries_[id];
   if (!e.live) return;
-  e.live = false;
-  auto& list = cells_[key(cell_of(glm::vec3(e.particle)))];
-  list.erase(std::find(list.begin(), list.end(), id));
+  e.live = false;  // stays in its cell's list; for_each_near skips it
   --live_;
 }
 

@@ -37,7 +37,6 @@
 #include <functional>
 #include <optional>
 #include <random>
-#include <unordered_map>
 #include <vector>
 
 #include "fields/closest_point_embedding.h"
@@ -122,16 +121,18 @@ class HostIndex {
   struct Entry;
   glm::ivec3 cell_of(const glm::vec3& p) const;
   static uint64_t key(const glm::ivec3& c);
-  // Calls fn(id, entry) for every live particle in the cells covering the ball of `radius` around p.
+  // Calls fn(id, entry) for every live particle in the cells covering the ball of `radius` around p, cell by cell,
+  // in insertion order within a cell.
   template <class Fn>
   void for_each_near(const glm::vec3& p, float radius, Fn&& fn) const {
     const glm::ivec3 lo = cell_of(p - radius), hi = cell_of(p + radius);
     for (int z = lo.z; z <= hi.z; ++z)
       for (int y = lo.y; y <= hi.y; ++y)
         for (int x = lo.x; x <= hi.x; ++x) {
-          const auto it = cells_.find(key({x, y, z}));
-          if (it == cells_.end()) continue;
-          for (uint32_t j : it->second) fn(j, entries_[j]);
+          const size_t slot = find(key({x, y, z}));
+          if (slot == kNoSlot) continue;
+          for (uint32_t j = table_[slot].head; j != kNone; j = entries_[j].next)
+            if (entries_[j].live) fn(j, entries_[j]);
         }
   }
   double cell_;
@@ -142,9 +143,21 @@ class HostIndex {
     glm::vec4 particle;
     uint32_t feature;
     bool live;
+    uint32_t next;  // the next entry of its cell (kNone: the last)
   };
   std::vector<Entry> entries_;
-  std::unordered_map<uint64_t, std::vector<uint32_t>> cells_;
+  // The cells: an open-addressing table (linear probing, a power of two, at most half full) of lists threaded
+  // through the entries. No allocation per cell, and a removed entry is only marked: a hash map of vectors spent
+  // most of the seeding and the add/delete steps in allocations and erases at a million particles.
+  static constexpr uint32_t kNone = ~0u;
+  static constexpr size_t kNoSlot = ~size_t(0);
+  struct Cell {
+    uint64_t key = 0;
+    uint32_t head = kNone, tail = kNone;  // head == kNone: an empty slot
+  };
+  std::vector<Cell> table_;
+  size_t cells_used_ = 0;
+  size_t find(uint64_t key) const;  // the slot holding key, or kNoSlot
 };
 
 struct SeedStats {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <random>
 
 #include "fields/fields_stage.h"
@@ -95,29 +96,53 @@ TEST_CASE("ideal energy: hexagonal packing at h, and the density its energy impl
   }
 }
 
-TEST_CASE("host index energies equal the brute-force reference, through inserts and removals") {
+TEST_CASE("host index energies equal the brute-force reference, through inserts, removals and re-inserts") {
   const auto& s = sphere();
   auto pop = random_on_sphere(s, 800, 9);
   std::mt19937 rng(3);
   for (auto& p : pop.particles) p.w *= 0.5f + std::uniform_real_distribution<float>(0.0f, 1.0f)(rng);  // varied h
-  particles::HostIndex index(s.fields.embedding, 2.0);
-  for (size_t i = 0; i < pop.particles.size(); ++i) index.insert(pop.particles[i], pop.features[i]);
-  for (uint32_t i = 0; i < 800; i += 3) index.remove(i);
-  std::vector<glm::vec4> live;
-  std::vector<uint32_t> live_features;
-  std::vector<uint32_t> ids;
-  for (uint32_t i = 0; i < 800; ++i)
-    if (i % 3 != 0) {
+  // Cells of 2 (a few hundred cells) and of 0.2 (thousands: the cell table grows several times).
+  for (double cell : {2.0, 0.2}) {
+    CAPTURE(cell);
+    particles::HostIndex index(s.fields.embedding, cell);
+    for (size_t i = 0; i < pop.particles.size(); ++i) index.insert(pop.particles[i], pop.features[i]);
+    for (uint32_t i = 0; i < 800; i += 3) index.remove(i);
+    index.remove(3);  // twice: no effect
+    std::vector<glm::vec4> live;
+    std::vector<uint32_t> live_features;
+    std::vector<uint32_t> ids;
+    for (uint32_t i = 0; i < 800; ++i)
+      if (i % 3 != 0) {
+        live.push_back(pop.particles[i]);
+        live_features.push_back(0);
+        ids.push_back(i);
+      }
+    for (uint32_t i = 0; i < 800; i += 30) {  // back in under new ids
+      ids.push_back(index.insert(pop.particles[i], pop.features[i]));
       live.push_back(pop.particles[i]);
       live_features.push_back(0);
-      ids.push_back(i);
     }
-  CHECK(index.size() == live.size());
-  const auto want = ref::particle_energy(live, live_features, index.masks());
-  double worst = 0;
-  for (size_t k = 0; k < live.size(); ++k)
-    worst = std::max(worst, std::fabs(index.energy(glm::vec3(live[k]), live[k].w, 0, ids[k]) - double(want[k].w)));
-  CHECK(worst < 1e-4);
+    CHECK(index.size() == live.size());
+    const auto want = ref::particle_energy(live, live_features, index.masks());
+    double worst = 0;
+    for (size_t k = 0; k < live.size(); ++k)
+      worst = std::max(worst, std::fabs(index.energy(glm::vec3(live[k]), live[k].w, 0, ids[k]) - double(want[k].w)));
+    CHECK(worst < 1e-4);
+    // nearest: the closest live particle, never a removed one.
+    size_t wrong = 0;
+    for (uint32_t i = 0; i < 800; i += 7) {
+      const glm::vec3 p = glm::vec3(pop.particles[i]) + glm::vec3(0.01f);
+      float best = 3.0f;
+      std::optional<glm::vec3> expect;
+      for (const auto& q : live) {
+        const float d = glm::length(p - glm::vec3(q));
+        if (d <= best) best = d, expect = glm::vec3(q);
+      }
+      const auto got = index.nearest(p, 0, 3.0f);
+      wrong += got.has_value() != expect.has_value() || (got && glm::length(*got - p) != best);
+    }
+    CHECK(wrong == 0);
+  }
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "add/delete brings a 3x too dense and a 3x too sparse sphere to the hexagonal count") {
