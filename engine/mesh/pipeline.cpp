@@ -262,6 +262,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
+      rep.volume_one_run_because = meshes.one_run_because;
       const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.
@@ -275,14 +276,16 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
         }
         return renumber[v];
       };
-      // Tets in no seeded region (none expected: every enclosed component has a seed) take the fields' material.
+      // Tets in no seeded region take the fields' material: TetGen numbers an unseeded region itself (seen in the
+      // one-run fallback on the 32^3 shells).
+      auto seeded = [&](int region) { return region >= 1 && size_t(region) <= labels.size(); };
       std::vector<uint16_t> fallback;
-      if (V.region.size() != V.tets.size() || std::count(V.region.begin(), V.region.end(), 0) > 0)
+      if (V.region.size() != V.tets.size() || !std::all_of(V.region.begin(), V.region.end(), seeded))
         fallback = label_tets(F.fields, V);
       std::vector<std::vector<std::array<uint32_t, 4>>> per_material(labels.size());
       for (size_t i = 0; i < V.tets.size(); ++i) {
         const int region = V.region.empty() ? 0 : V.region[i];
-        const uint16_t m = region >= 1 && size_t(region) <= labels.size() ? uint16_t(region - 1) : fallback[i];
+        const uint16_t m = seeded(region) ? uint16_t(region - 1) : fallback[i];
         out.tets.push_back({out_index(V.tets[i][0]), out_index(V.tets[i][1]), out_index(V.tets[i][2]),
                             out_index(V.tets[i][3])});
         out.tet_material.push_back(labels[m]);
@@ -298,8 +301,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     }
     char d[160];
     if (rep.volume_error.empty())
-      std::snprintf(d, sizeof d, "%s tets, dihedral angles %.1f..%.1f deg", count(rep.volume.tets).c_str(),
-                    rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg);
+      std::snprintf(d, sizeof d, "%s tets, dihedral angles %.1f..%.1f deg%s", count(rep.volume.tets).c_str(),
+                    rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
+                    rep.volume_one_run_because.empty() ? "" : "; one run for all materials (one failed alone)");
     else
       std::snprintf(d, sizeof d, "failed");
     stage_done(d);

@@ -84,6 +84,7 @@ struct MeshReport {
   TetImproveReport tet_improvement;  // the sliver passes after TetGen (smooth.h improve_tets, both runs)
   SliverSplitReport sliver_split;    // slivers flipped away or refilled around a new vertex (smooth.h split_slivers)
   std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
+  std::string volume_one_run_because;  // not empty: why the materials were meshed in one run (volume_mesh.h)
   size_t interfaces_manifold = 0, materials_closed = 0;
   size_t crossing_triangles = 0;  // pairs of interface triangles that cross each other (quality.h; 0 for a valid mesh)
 };

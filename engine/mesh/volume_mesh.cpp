@@ -42,6 +42,24 @@ MaterialMeshes mesh_one(const std::vector<glm::dvec3>& points, const Job& job, c
   return r;
 }
 
+// mesh_one in a child process.
+MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, const QualityOptions& options,
+                       const std::string& what) {
+  const std::string bytes = run_in_child(what, [&] {
+    const MaterialMeshes r = mesh_one(points, job, options);
+    ByteWriter w;
+    put_tets(w, r.tets);
+    w.put_value(r.improvement);
+    w.put_value(r.sliver_split);
+    return w.take();
+  });
+  MaterialMeshes r;
+  ByteReader in(bytes);
+  if (!get_tets(in, r.tets) || !in.get_value(r.improvement) || !in.get_value(r.sliver_split) || !in.done())
+    throw std::runtime_error(what + ": truncated result from the child process");
+  return r;
+}
+
 }  // namespace
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
@@ -76,35 +94,40 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return jobs[a].triangles.size() > jobs[b].triangles.size(); });
   std::vector<MaterialMeshes> parts(jobs.size());
+  std::string one_run_because;
   std::vector<std::string> errors(jobs.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const Job& job = jobs[order[k]];
       const std::string what = "volume mesh of material " + std::to_string(labels[job.material]);
       try {
-        const std::string bytes = run_in_child(what, [&] {
-          const MaterialMeshes r = mesh_one(points, job, options);
-          ByteWriter w;
-          put_tets(w, r.tets);
-          w.put_value(r.improvement);
-          w.put_value(r.sliver_split);
-          return w.take();
-        });
-        MaterialMeshes& r = parts[order[k]];
-        ByteReader in(bytes);
-        if (!get_tets(in, r.tets) || !in.get_value(r.improvement) || !in.get_value(r.sliver_split) || !in.done())
-          throw std::runtime_error(what + ": truncated result from the child process");
+        parts[order[k]] = run_job(points, job, options, what);
       } catch (const std::exception& e) {
         const std::string message = e.what();
         errors[order[k]] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
       }
     }
   }, tbb::simple_partitioner());
+  std::string failed;
   for (const auto& e : errors)
-    if (!e.empty()) throw std::runtime_error(e);
-
+    if (!e.empty()) failed += (failed.empty() ? "" : "; ") + e;
+  if (!failed.empty()) {
+    // A material whose boundary is not closed (a thin layer's interface with a hole) leaks into the outside when
+    // meshed alone, and TetGen drops its vertices; with every interface present the leak only reaches a neighbour's
+    // region. So a failed material sends the whole mesh to one run over all interfaces, as one job.
+    Job all{0, triangles, seeds, {}};
+    MaterialMeshes r;
+    try {
+      r = run_job(points, all, options, "volume mesh of all materials in one run");
+    } catch (const std::exception& e) {
+      throw std::runtime_error(failed + "; then " + e.what());
+    }
+    parts.assign(1, std::move(r));
+    one_run_because = failed;
+  }
   // Merge in material order: each run's added points after the ones before it.
   MaterialMeshes out;
+  out.one_run_because = one_run_because;
   Tets& T = out.tets;
   T.points = points;
   bool first = true;

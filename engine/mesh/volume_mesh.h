@@ -8,6 +8,8 @@
 // triangles, as faces of tets on both sides, and the runs are independent: they go in parallel (the thread pool's
 // limit, largest boundary first), each in a child process because a failing TetGen can kill its process
 // (child_process.h). The result does not depend on the thread count: the runs are merged in material order.
+// A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
+// are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //
 // Inputs:  points     the surface vertices (those no triangle uses are in no tet)
 //          triangles  the interface triangles, pair[i] the two materials (indices) on either side of triangle i
@@ -31,6 +33,7 @@ struct MaterialMeshes {
   Tets tets;
   TetImproveReport improvement;  // smallest dihedral angles over all materials, moves summed
   SliverSplitReport sliver_split;
+  std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
 };
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
