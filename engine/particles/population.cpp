@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "ref/cp_lookup.h"
@@ -104,13 +105,15 @@ uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
   const uint32_t id = uint32_t(entries_.size());
   entries_.push_back({particle, feature, true, kNone});
   if (2 * (cells_used_ + 1) > table_.size()) {  // grow: rehash the cells into a table twice the size
-    std::vector<Cell> old(std::max<size_t>(1024, table_.size() * 2));
+    std::vector<Cell> old(std::max<size_t>(64, table_.size() * 2));
     old.swap(table_);
+    used_slots_.clear();
     for (const Cell& c : old) {
       if (c.head == kNone) continue;
       size_t slot = cell_hash(c.key) & (table_.size() - 1);
       while (table_[slot].head != kNone) slot = (slot + 1) & (table_.size() - 1);
       table_[slot] = c;
+      used_slots_.push_back(slot);
     }
   }
   const uint64_t k = key(cell_of(glm::vec3(particle)));
@@ -120,6 +123,7 @@ uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
   if (c.head == kNone) {
     c = {k, id, id};
     ++cells_used_;
+    used_slots_.push_back(slot);
   } else {
     entries_[c.tail].next = id;
     c.tail = id;
@@ -127,6 +131,15 @@ uint32_t HostIndex::insert(const glm::vec4& particle, uint32_t feature) {
   h_max_ = std::max(h_max_, particle.w);
   ++live_;
   return id;
+}
+
+void HostIndex::clear() {
+  for (size_t slot : used_slots_) table_[slot] = Cell{};
+  used_slots_.clear();
+  entries_.clear();
+  cells_used_ = 0;
+  live_ = 0;
+  h_max_ = 0;
 }
 
 void HostIndex::remove(uint32_t id) {
@@ -187,7 +200,8 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
                            bool grid_only) {
   Population out;
   SeedStats st;
-  HostIndex index(E, typical_cell(E));
+  const double index_cell = typical_cell(E);
+  HostIndex index(E, index_cell);
   std::mt19937 rng(options.seed);
   const double voxel = E.grid.min_spacing();
   const size_t per_block = size_t(E.sub * E.sub * E.sub);
@@ -244,12 +258,58 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
     }
     std::shuffle(candidates.begin(), candidates.end(), rng);  // no grid-aligned bias in who is kept
     st.candidates += candidates.size();
-    for (const auto& [p, f] : candidates) {
-      if (!grid_only) {
-        const double ideal = ideal_energy(kind);
-        if (index.energy(glm::vec3(p), p.w, f) >= options.seed_energy_factor * ideal) continue;
-      }
-      keep(p, f);
+    if (grid_only) {
+      for (const auto& [p, f] : candidates) keep(p, f);
+      continue;
+    }
+    // The energy test in parallel. Candidates go into tiles at least as wide as the largest reach of a pair
+    // (sqrt(3) h_max); a tile's candidates see only particles in its own and the 26 tiles around it. Tiles of 8 index
+    // cells at least: the tiled order packs denser than one random sequence where tiles hold few particles (tiles
+    // of sqrt(3) h_max kept 4-9% more seeds at uniform sizing, and 128^3 at h <= 2 then took 80 iterations instead
+    // of 50); with 8 cells, 0.6% and 1.6% more (64^3 at h = 0.5, 128^3 at h <= 2). Tiles of one of
+    // the 8 parities share no neighbour, so a parity's tiles are tested side by side, each against the particles
+    // kept before this parity (the shared index, read only) and its own kept ones (a scratch index), candidates in
+    // their shuffled order; then they join the shared index in tile order. Same result on any thread count.
+    const double ideal = ideal_energy(kind);
+    float h_max = 0;
+    for (const auto& c : candidates) h_max = std::max(h_max, c.first.w);
+    const double tile = std::max(double(kSupport) * h_max, 8.0 * index_cell);
+    struct Tiled {
+      uint64_t key;  // parity in the top 3 bits, then the tile
+      uint32_t candidate;
+    };
+    std::vector<Tiled> order(candidates.size());
+    for (uint32_t c = 0; c < candidates.size(); ++c) {
+      const glm::ivec3 t(glm::floor(glm::dvec3(glm::vec3(candidates[c].first)) / tile));
+      const uint64_t parity = uint64_t(t.x & 1) | uint64_t(t.y & 1) << 1 | uint64_t(t.z & 1) << 2;
+      order[c] = {parity << 61 | (fields::cell_key(t) & ((uint64_t(1) << 61) - 1)), c};
+    }
+    std::stable_sort(order.begin(), order.end(), [](const Tiled& a, const Tiled& b) { return a.key < b.key; });
+    std::vector<uint8_t> kept(candidates.size(), 0);
+    tbb::enumerable_thread_specific<HostIndex> scratch(E, index_cell);
+    for (size_t begin = 0; begin < order.size();) {
+      const uint64_t parity = order[begin].key >> 61;
+      size_t end = begin;
+      std::vector<size_t> tile_begin;
+      for (; end < order.size() && order[end].key >> 61 == parity; ++end)
+        if (end == begin || order[end].key != order[end - 1].key) tile_begin.push_back(end);
+      tile_begin.push_back(end);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, tile_begin.size() - 1, 16), [&](const tbb::blocked_range<size_t>& r) {
+        HostIndex& mine = scratch.local();
+        for (size_t k = r.begin(); k < r.end(); ++k) {
+          mine.clear();
+          for (size_t i = tile_begin[k]; i < tile_begin[k + 1]; ++i) {
+            const auto& [p, f] = candidates[order[i].candidate];
+            const double e = index.energy(glm::vec3(p), p.w, f) + mine.energy(glm::vec3(p), p.w, f);
+            if (e >= options.seed_energy_factor * ideal) continue;
+            mine.insert(p, f);
+            kept[order[i].candidate] = 1;
+          }
+        }
+      });
+      for (size_t i = begin; i < end; ++i)
+        if (kept[order[i].candidate]) keep(candidates[order[i].candidate].first, candidates[order[i].candidate].second);
+      begin = end;
     }
   }
   st.kept = out.particles.size();

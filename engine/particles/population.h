@@ -116,6 +116,8 @@ class HostIndex {
   std::optional<glm::vec3> nearest(const glm::vec3& p, uint32_t feature, float radius) const;
   const std::vector<uint64_t>& masks() const { return masks_; }
   size_t size() const { return live_; }
+  // Empties the index, keeping its memory (a scratch index reused tile after tile).
+  void clear();
 
  private:
   struct Entry;
@@ -156,6 +158,7 @@ class HostIndex {
     uint32_t head = kNone, tail = kNone;  // head == kNone: an empty slot
   };
   std::vector<Cell> table_;
+  std::vector<size_t> used_slots_;  // the slots holding a cell, for clear()
   size_t cells_used_ = 0;
   size_t find(uint64_t key) const;  // the slot holding key, or kNoSlot
 };
