@@ -78,7 +78,7 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     if (use == MemoryUse::readback)
       type = ctx.memory_type(req.memoryTypeBits, M::eHostVisible | M::eHostCoherent, M::eHostCached);
     else if (ctx.unified_memory())
-      type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, M::eHostVisible | M::eHostCoherent);
+      type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, M::eHostVisible | M::eHostCoherent | M::eHostCached);
     else
       type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, {});
     s->memory = vk::raii::DeviceMemory(ctx.device(), vk::MemoryAllocateInfo(req.size, type));
@@ -90,8 +90,10 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     s->ctx = &ctx;
     ctx.note_allocation(req.size);
     const auto flags = ctx.physical_device().getMemoryProperties().memoryTypes[type].propertyFlags;
+    // Device buffers are mapped only where the host reads them at cache speed (unified memory, above); elsewhere
+    // (a device-local type that is host-visible through an uncached BAR) they go through staging.
     const bool map = (flags & M::eHostVisible) && (flags & M::eHostCoherent) &&
-                     (use == MemoryUse::readback || !ctx.force_staging());
+                     (use == MemoryUse::readback || (ctx.unified_memory() && (flags & M::eHostCached)));
     if (map) s->mapped = s->memory.mapMemory(0, VK_WHOLE_SIZE);
   });
   s_ = std::move(s);

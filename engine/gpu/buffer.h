@@ -2,9 +2,10 @@
 // Device buffers owned by RAII objects. A buffer's storage is shared with every Sequence that records it, so it lives
 // until the GPU is done with it even if the Buffer object goes away first.
 //
-// Memory: on unified-memory devices (lavapipe, integrated GPUs, resizable BAR) buffers live in device-local,
-// host-visible memory and are mapped; elsewhere they live in device-local memory and upload/download go through a
-// temporary staging buffer. Either way upload()/download() work and block until done.
+// Memory: on unified-memory devices (lavapipe, integrated GPUs: device-local memory the host reads through its
+// cache) buffers live in device-local, host-visible memory and are mapped; elsewhere (discrete GPUs, a resizable BAR
+// included) they live in device-local memory and upload/download go through a temporary staging buffer in cached
+// host memory. Either way upload()/download() work and block until done.
 #include <cstring>
 #include <memory>
 #include <span>

@@ -119,8 +119,9 @@ class Context {
 
   // Memory type index for `required` flags, preferring `preferred`; throws when none matches.
   uint32_t memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required, vk::MemoryPropertyFlags preferred) const;
-  // True when device-local memory is also host-visible on this device (CPU drivers, integrated GPUs, resizable BAR):
-  // buffers are then mapped directly and no staging copy is needed.
+  // True when device-local memory is also host-visible and host-cached on this device (CPU drivers, integrated GPUs):
+  // buffers are then mapped directly and no staging copy is needed. Not for a resizable BAR (host-visible but uncached:
+  // host reads crawl across the bus), where transfers are staged.
   bool unified_memory() const { return unified_memory_; }
   bool force_staging() const { return force_staging_; }
 

@@ -96,6 +96,7 @@ void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
     std::swap(particles_, particles_spare_);
     std::swap(features_, features_spare_);
     std::swap(ids_, ids_spare_);
+    ids_host_.clear();
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
     steps_since_build_ = 0;
   }

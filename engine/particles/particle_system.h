@@ -84,7 +84,8 @@ class ParticleSystem {
   template <class T>
   std::vector<T> in_caller_order(const gpu::Buffer<T>& buffer) const {
     const std::vector<T> by_slot = buffer.download(0, n_);
-    const std::vector<uint32_t> ids = ids_.download(0, n_);
+    if (ids_host_.size() != n_) ids_host_ = ids_.download(0, n_);  // once per octree rebuild
+    const std::vector<uint32_t>& ids = ids_host_;
     std::vector<T> out(n_);
     for (uint32_t q = 0; q < n_; ++q) out[ids[q]] = by_slot[q];
     return out;
@@ -107,6 +108,7 @@ class ParticleSystem {
   gpu::Buffer<glm::vec4> particles_, particles_spare_, walk_result_;
   octree::NodeMoments node_moments_;
   gpu::Buffer<uint32_t> features_, features_spare_, ids_, ids_spare_;  // ids_: the caller's index of each slot
+  mutable std::vector<uint32_t> ids_host_;  // ids_ as last read back; emptied when a rebuild reorders the slots
   gpu::Buffer<uint32_t> feature_kinds_, order_, counts_, visits_, lost_, flags_;
   gpu::Buffer<uint64_t> feature_masks_, keys_;
   gpu::Buffer<glm::uvec4> nodes_;
