@@ -194,6 +194,72 @@ float quadruple_h(const fields::ClosestPointEmbedding& E, const glm::dvec3& p, u
   return float(E.grid.min_spacing());
 }
 
+// Work items in tiles of width `tile` by position, the tiles grouped by parity (tile coordinates mod 2: 8 classes).
+// Two tiles of one parity are at least `tile` apart, so work whose reads and writes stay within that of its items
+// runs on the tiles of one parity side by side (run_by_parity). Items keep their given order within a tile.
+struct Tiles {
+  std::vector<uint32_t> item;     // the items, parity by parity, tile by tile
+  std::vector<size_t> begin;      // tile t holds item[begin[t] .. begin[t + 1])
+  std::vector<size_t> parity;     // the tiles of parity class c are [parity[c], parity[c + 1])
+  size_t count() const { return begin.size() - 1; }
+};
+
+template <class Position>
+Tiles tile_by_parity(const std::vector<uint32_t>& items, double tile, Position&& position) {
+  struct Keyed {
+    uint64_t key;  // parity in the top 3 bits, then the tile
+    uint32_t item;
+  };
+  std::vector<Keyed> order(items.size());
+  for (size_t k = 0; k < items.size(); ++k) {
+    const glm::ivec3 t(glm::floor(glm::dvec3(position(items[k])) / tile));
+    const uint64_t parity = uint64_t(t.x & 1) | uint64_t(t.y & 1) << 1 | uint64_t(t.z & 1) << 2;
+    order[k] = {parity << 61 | (fields::cell_key(t) & ((uint64_t(1) << 61) - 1)), items[k]};
+  }
+  std::stable_sort(order.begin(), order.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
+  Tiles out;
+  out.item.resize(order.size());
+  std::vector<uint64_t> tile_parity;
+  for (size_t k = 0; k < order.size(); ++k) {
+    out.item[k] = order[k].item;
+    if (k > 0 && order[k].key == order[k - 1].key) continue;
+    out.begin.push_back(k);
+    tile_parity.push_back(order[k].key >> 61);
+  }
+  out.begin.push_back(order.size());
+  for (uint64_t c = 0; c <= 8; ++c)
+    out.parity.push_back(size_t(std::lower_bound(tile_parity.begin(), tile_parity.end(), c) - tile_parity.begin()));
+  return out;
+}
+
+// Parity by parity: work(t) on the parity's tiles in parallel, then join(t) on them in tile order (serially). The
+// result does not depend on the thread count when work(t) reads only what earlier parities' joins left and writes
+// only its own tile's state.
+template <class Work, class Join>
+void run_by_parity(const Tiles& tiles, Work&& work, Join&& join) {
+  for (size_t c = 0; c < 8; ++c) {
+    const size_t first = tiles.parity[c], last = tiles.parity[c + 1];
+    tbb::parallel_for(tbb::blocked_range<size_t>(first, last, 1), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t < r.end(); ++t) work(t);
+    });
+    for (size_t t = first; t < last; ++t) join(t);
+  }
+}
+
+// A small counter-based generator (splitmix64) for the per-item random streams of parallel steps.
+struct SplitMix {
+  using result_type = uint64_t;
+  uint64_t state;
+  static constexpr uint64_t min() { return 0; }
+  static constexpr uint64_t max() { return ~uint64_t(0); }
+  uint64_t operator()() {
+    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  }
+};
+
 }  // namespace
 
 Population seed_population(const fields::ClosestPointEmbedding& E, const PopulationOptions& options, SeedStats* stats,
@@ -274,43 +340,28 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
     float h_max = 0;
     for (const auto& c : candidates) h_max = std::max(h_max, c.first.w);
     const double tile = std::max(double(kSupport) * h_max, 8.0 * index_cell);
-    struct Tiled {
-      uint64_t key;  // parity in the top 3 bits, then the tile
-      uint32_t candidate;
-    };
-    std::vector<Tiled> order(candidates.size());
-    for (uint32_t c = 0; c < candidates.size(); ++c) {
-      const glm::ivec3 t(glm::floor(glm::dvec3(glm::vec3(candidates[c].first)) / tile));
-      const uint64_t parity = uint64_t(t.x & 1) | uint64_t(t.y & 1) << 1 | uint64_t(t.z & 1) << 2;
-      order[c] = {parity << 61 | (fields::cell_key(t) & ((uint64_t(1) << 61) - 1)), c};
-    }
-    std::stable_sort(order.begin(), order.end(), [](const Tiled& a, const Tiled& b) { return a.key < b.key; });
+    std::vector<uint32_t> all(candidates.size());
+    std::iota(all.begin(), all.end(), 0u);
+    const Tiles tiles = tile_by_parity(all, tile, [&](uint32_t c) { return glm::vec3(candidates[c].first); });
     std::vector<uint8_t> kept(candidates.size(), 0);
     tbb::enumerable_thread_specific<HostIndex> scratch(E, index_cell);
-    for (size_t begin = 0; begin < order.size();) {
-      const uint64_t parity = order[begin].key >> 61;
-      size_t end = begin;
-      std::vector<size_t> tile_begin;
-      for (; end < order.size() && order[end].key >> 61 == parity; ++end)
-        if (end == begin || order[end].key != order[end - 1].key) tile_begin.push_back(end);
-      tile_begin.push_back(end);
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, tile_begin.size() - 1, 16), [&](const tbb::blocked_range<size_t>& r) {
-        HostIndex& mine = scratch.local();
-        for (size_t k = r.begin(); k < r.end(); ++k) {
+    run_by_parity(
+        tiles,
+        [&](size_t t) {
+          HostIndex& mine = scratch.local();
           mine.clear();
-          for (size_t i = tile_begin[k]; i < tile_begin[k + 1]; ++i) {
-            const auto& [p, f] = candidates[order[i].candidate];
+          for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k) {
+            const auto& [p, f] = candidates[tiles.item[k]];
             const double e = index.energy(glm::vec3(p), p.w, f) + mine.energy(glm::vec3(p), p.w, f);
             if (e >= options.seed_energy_factor * ideal) continue;
             mine.insert(p, f);
-            kept[order[i].candidate] = 1;
+            kept[tiles.item[k]] = 1;
           }
-        }
-      });
-      for (size_t i = begin; i < end; ++i)
-        if (kept[order[i].candidate]) keep(candidates[order[i].candidate].first, candidates[order[i].candidate].second);
-      begin = end;
-    }
+        },
+        [&](size_t t) {
+          for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k)
+            if (kept[tiles.item[k]]) keep(candidates[tiles.item[k]].first, candidates[tiles.item[k]].second);
+        });
   }
   st.kept = out.particles.size();
   if (stats) *stats = st;
@@ -323,7 +374,8 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
                       const std::vector<uint32_t>& flags, const std::vector<double>& feature_ratio,
                       const PopulationOptions& options, std::mt19937& rng, RoundReport& report) {
   const size_t n = pop.particles.size();
-  HostIndex index(E, typical_cell(E));
+  const double index_cell = typical_cell(E);
+  HostIndex index(E, index_cell);
   std::vector<uint32_t> id(n);  // each particle's id in the index (a re-inserted particle gets a new one)
   for (size_t i = 0; i < n; ++i) id[i] = index.insert(pop.particles[i], pop.features[i]);
   std::vector<uint8_t> alive(n, 1);
@@ -375,43 +427,96 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
   }
 
   // c. Additions: add candidates first (lowest energy first), then, for sparse features, the other particles.
+  //    In parallel over tiles (tile_by_parity) wide enough that two tiles of one parity never place newcomers within
+  //    reach of each other: a newcomer lies within about 2 h_max of its parent (h away, then onto the feature), and
+  //    pairs interact within sqrt(3) h. A tile tests its parents in energy order against the particles of earlier
+  //    parities (the shared index, read only) and its own newcomers (a scratch index); each parent draws its
+  //    directions from its own stream (the round's seed and its index), so the result is the same on any number of
+  //    threads.
   Population out;
   for (size_t i = 0; i < n; ++i)
     if (alive[i]) {
       out.particles.push_back(pop.particles[i]);
       out.features.push_back(pop.features[i]);
     }
-  std::normal_distribution<float> n01;
+  const uint64_t round_seed = (uint64_t(rng()) << 32) ^ uint64_t(rng());
+  float h_max = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (alive[i]) h_max = std::max(h_max, pop.particles[i].w);
+  const double tile = std::max((4.0 + double(kSupport)) * double(h_max), 8.0 * index_cell);
+  tbb::enumerable_thread_specific<HostIndex> scratch(E, index_cell);
+  tbb::enumerable_thread_specific<std::vector<long>> allowance(F, 0L);
   std::vector<long> budget(F, 0);
   for (size_t i = 0; i < n; ++i)
     if (alive[i] && flags[i] == 2) ++budget[pop.features[i]];
   for (size_t f = 0; f < F; ++f) budget[f] = std::max(budget[f], change[f]);
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 2; ++pass) {
+    // Pass 0, the add candidates: one newcomer each at most (their feature's budget always covers that). Pass 1, the
+    // other particles of a feature still short of its count. A sparse feature's newcomers may sit as high as a
+    // re-inserted particle until its count is made up, min(budget, change) of them (in pass 0, change); after that
+    // they only fill holes. That quota is shared among the tiles by their share of the feature's parents: a parent
+    // carries a token where the running quota passes a whole number.
+    std::vector<long> quota(F, 0), parents_of(F, 0);
+    for (size_t f = 0; f < F; ++f) quota[f] = std::max(0L, pass == 0 ? change[f] : std::min(budget[f], change[f]));
+    std::vector<uint32_t> parents;
     for (size_t i : by_energy) {
       const uint32_t f = pop.features[i];
-      if (!alive[i] || budget[f] <= 0 || feature_dimension(E.features[f].kind) == 0) continue;
-      if ((pass == 0) != (flags[i] == 2)) continue;
-      if (pass == 1 && change[f] <= 0) continue;
-      const glm::vec4 parent = pop.particles[i];
-      // Filling a hole in a feature of the right density: the newcomer must sit at about the ideal energy. Raising
-      // the count of a sparse feature (its budget bounds how many): it may sit as high as a re-inserted particle.
-      const double limit = (change[f] > 0 ? options.readd_factor : options.accept_factor) * ideal_of(i);
-      for (int t = 0; t < options.add_tries; ++t) {
-        glm::vec3 dir(n01(rng), n01(rng), n01(rng));
-        if (glm::length(dir) < 1e-6f) continue;
-        dir = glm::normalize(dir);
-        const auto cp = ref::cp_lookup(E, glm::vec3(parent) + parent.w * dir, f);
-        if (!cp.valid || glm::length(glm::vec3(cp.value) - glm::vec3(parent)) < 0.5f * parent.w) continue;
-        if (index.energy(glm::vec3(cp.value), cp.value.w, f) >= limit) continue;
-        index.insert(cp.value, f);
-        out.particles.push_back(cp.value);
-        out.features.push_back(f);
-        ++report.added;
-        --budget[f];
-        --change[f];
-        break;
-      }
+      if (!alive[i] || feature_dimension(E.features[f].kind) == 0 || (pass == 0) != (flags[i] == 2)) continue;
+      if (pass == 1 && quota[f] <= 0) continue;
+      parents.push_back(uint32_t(i));
+      ++parents_of[f];
     }
+    const Tiles tiles = tile_by_parity(parents, tile, [&](uint32_t i) { return glm::vec3(pop.particles[i]); });
+    std::vector<uint8_t> token(tiles.item.size());
+    std::vector<long> seen(F, 0);
+    for (size_t k = 0; k < tiles.item.size(); ++k) {
+      const uint32_t f = pop.features[tiles.item[k]];
+      const long q = quota[f], m = parents_of[f], a = seen[f]++;
+      token[k] = uint8_t((q * (a + 1)) / m > (q * a) / m);
+    }
+    const bool capped = pass == 1;  // pass 1 adds only within the quota
+    std::vector<std::vector<std::pair<glm::vec4, uint32_t>>> newcomers(tiles.count());
+    run_by_parity(
+        tiles,
+        [&](size_t t) {
+          HostIndex& mine = scratch.local();
+          mine.clear();
+          std::vector<long>& allow = allowance.local();
+          for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k) allow[pop.features[tiles.item[k]]] += token[k];
+          for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k) {
+            const uint32_t i = tiles.item[k], f = pop.features[i];
+            if (capped && allow[f] <= 0) continue;
+            const double limit = (allow[f] > 0 ? options.readd_factor : options.accept_factor) * ideal_energy(E.features[f].kind);
+            const glm::vec4 parent = pop.particles[i];
+            SplitMix stream{round_seed ^ (uint64_t(i) * 0xd1b54a32d192ed03ull)};
+            std::normal_distribution<float> n01;
+            for (int attempt = 0; attempt < options.add_tries; ++attempt) {
+              glm::vec3 dir(n01(stream), n01(stream), n01(stream));
+              if (glm::length(dir) < 1e-6f) continue;
+              dir = glm::normalize(dir);
+              const auto cp = ref::cp_lookup(E, glm::vec3(parent) + parent.w * dir, f);
+              if (!cp.valid || glm::length(glm::vec3(cp.value) - glm::vec3(parent)) < 0.5f * parent.w) continue;
+              const glm::vec3 q(cp.value);
+              if (index.energy(q, cp.value.w, f) + mine.energy(q, cp.value.w, f) >= limit) continue;
+              mine.insert(cp.value, f);
+              newcomers[t].push_back({cp.value, f});
+              if (allow[f] > 0) --allow[f];
+              break;
+            }
+          }
+          for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k) allow[pop.features[tiles.item[k]]] = 0;
+        },
+        [&](size_t t) {
+          for (const auto& [p, f] : newcomers[t]) {
+            index.insert(p, f);
+            out.particles.push_back(p);
+            out.features.push_back(f);
+            ++report.added;
+            --budget[f];
+            --change[f];
+          }
+        });
+  }
   report.total = uint32_t(out.particles.size());
   return out;
 }

@@ -13,8 +13,9 @@
 //      E < add_factor x ideal (add candidates), count them, and sum E / ideal per feature. The host reads back only
 //      these counts and sums; the population is settled when few particles are flagged (significance) and every
 //      feature's mean E / ideal is within energy_tolerance of 1.
-//   2. Otherwise the host reads the population back once and, inserting one particle at a time into a serial host
-//      index (so two neighbours never both decide to leave or stay):
+//   2. Otherwise the host reads the population back once and, inserting one particle at a time into a host index
+//      (so two neighbours never both decide to leave or stay; the additions run in parallel over tiles of one
+//      parity at a time, far enough apart that no two tiles' newcomers meet, with the same result on any thread count):
 //      a. removes the delete candidates and re-inserts each, lowest energy first, keeping it only if its energy is
 //         below readd_factor x ideal (the paper's 4x);
 //      b. corrects each feature's count towards the density its mean energy asks for: a feature whose mean E / ideal
