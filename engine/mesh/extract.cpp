@@ -65,6 +65,143 @@ Adjacency build_adjacency(const Tets& T) {
   return adj;
 }
 
+bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near_tet) {
+  if (points.empty()) return true;
+  if (T.tets.empty()) return false;
+  glm::dvec3 extent(0.0);
+  for (const auto& p : T.points) extent = glm::max(extent, glm::abs(p));
+  for (const auto& p : points) extent = glm::max(extent, glm::abs(p));
+  init_exact_predicates(extent);
+  T.neighbours.clear();
+  auto corner_point = [&](uint32_t t, int c) { return T.points[T.tets[t][size_t(c)]]; };
+  auto face_point = [&](uint32_t t, int c, int k) { return T.points[T.tets[t][size_t(kFace[c][k])]]; };
+  auto orientation = [&](const std::array<uint32_t, 4>& v) {
+    return orient3d_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]]);
+  };
+  std::vector<uint8_t> in_cavity(T.tets.size(), 0);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const glm::dvec3 q = points[i];
+    // Locate: step across any face that separates q from the tet's opposite corner (a visibility walk; it ends on
+    // a Delaunay tetrahedralization).
+    uint32_t t = near_tet[i] < T.tets.size() ? near_tet[i] : 0;
+    bool found = false;
+    for (size_t steps = 0; steps < 4 * T.tets.size() + 16 && !found; ++steps) {
+      found = true;
+      for (int k = 0; k < 4; ++k) {
+        const int c = int((steps + size_t(k)) % 4);  // rotating start: no cycling on ties
+        const glm::dvec3 a = face_point(t, c, 0), b = face_point(t, c, 1), d = face_point(t, c, 2);
+        const double side_q = orient3d_exact(a, b, d, q), side_v = orient3d_exact(a, b, d, corner_point(t, c));
+        if (side_q * side_v >= 0) continue;
+        const uint32_t n = adj.neighbour[size_t(t) * 4 + size_t(c)];
+        if (n == Adjacency::kHull) return false;  // outside the hull
+        t = n / 4;
+        found = false;
+        break;
+      }
+    }
+    if (!found) return false;
+    // The cavity: tets whose circumsphere holds q strictly, grown from t; its boundary faces (tet, corner).
+    auto inside = [&](uint32_t u) {
+      const auto& v = T.tets[u];
+      const double o = orientation(v);
+      return o != 0 && insphere_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]], q) * o > 0;
+    };
+    std::vector<uint32_t> cavity = {t};
+    std::vector<std::pair<uint32_t, int>> boundary;
+    in_cavity[t] = 1;
+    for (size_t k = 0; k < cavity.size(); ++k) {
+      const uint32_t u = cavity[k];
+      for (int c = 0; c < 4; ++c) {
+        const uint32_t n = adj.neighbour[size_t(u) * 4 + size_t(c)];
+        if (n != Adjacency::kHull && in_cavity[n / 4]) continue;
+        if (n != Adjacency::kHull && inside(n / 4)) {
+          in_cavity[n / 4] = 1;
+          cavity.push_back(n / 4);
+        } else {
+          boundary.push_back({u, c});
+        }
+      }
+    }
+    // Each new tet is its cavity tet with the boundary face's opposite corner moved to q: the same orientation, or q
+    // is on that face's plane (a flat tet) or on a vertex.
+    std::vector<std::array<uint32_t, 4>> made;
+    const uint32_t qi = uint32_t(T.points.size());
+    T.points.push_back(q);
+    bool flat = false;
+    for (const auto& [u, c] : boundary) {
+      std::array<uint32_t, 4> v = T.tets[u];
+      const double before = orientation(v);
+      v[size_t(c)] = qi;
+      const double after = orientation(v);
+      flat = flat || !(before * after > 0);
+      made.push_back(v);
+    }
+    for (uint32_t u : cavity) in_cavity[u] = 0;
+    // The faces through q pair up by their edge on the cavity's boundary (a closed surface: every edge twice).
+    std::vector<std::pair<uint64_t, uint32_t>> edges;  // (edge key, made index * 4 + corner)
+    for (size_t k = 0; k < made.size(); ++k) {
+      const int c = boundary[k].second;
+      for (int j = 0; j < 4; ++j) {
+        if (j == c) continue;
+        uint32_t e[2], m = 0;
+        for (int x = 0; x < 4; ++x)
+          if (x != j && x != c) e[m++] = made[k][size_t(x)];
+        edges.push_back({uint64_t(std::min(e[0], e[1])) << 32 | std::max(e[0], e[1]), uint32_t(k * 4) + uint32_t(j)});
+      }
+    }
+    std::sort(edges.begin(), edges.end());
+    bool closed = edges.size() % 2 == 0;
+    for (size_t k = 0; closed && k + 1 < edges.size(); k += 2)
+      closed = edges[k].first == edges[k + 1].first && (k + 2 >= edges.size() || edges[k + 2].first != edges[k].first);
+    if (flat || !closed) {
+      T.points.pop_back();
+      return false;
+    }
+    // Slots: the cavity's, then new ones. Outer faces keep their outside neighbour.
+    std::vector<uint32_t> slot(made.size()), outside(made.size());
+    for (size_t k = 0; k < made.size(); ++k) {
+      outside[k] = adj.neighbour[size_t(boundary[k].first) * 4 + size_t(boundary[k].second)];
+      slot[k] = k < cavity.size() ? cavity[k] : uint32_t(T.tets.size());
+      if (k >= cavity.size()) {
+        T.tets.push_back({});
+        adj.neighbour.resize(adj.neighbour.size() + 4, Adjacency::kHull);
+        in_cavity.push_back(0);
+      }
+    }
+    for (size_t k = 0; k < made.size(); ++k) {
+      const uint32_t s = slot[k], c = uint32_t(boundary[k].second);
+      T.tets[s] = made[k];
+      adj.neighbour[size_t(s) * 4 + c] = outside[k];
+      if (outside[k] != Adjacency::kHull) adj.neighbour[outside[k]] = s * 4 + c;
+    }
+    for (size_t k = 0; k < edges.size(); k += 2) {
+      const uint32_t a = slot[edges[k].second / 4] * 4 + edges[k].second % 4;
+      const uint32_t b = slot[edges[k + 1].second / 4] * 4 + edges[k + 1].second % 4;
+      adj.neighbour[a] = b;
+      adj.neighbour[b] = a;
+    }
+    // A cavity can hold more tets than its boundary has faces (a convex polytope's triangulations differ in size):
+    // its slots left over are filled with the last tets, highest slot first.
+    std::vector<uint32_t> unused(cavity.begin() + ptrdiff_t(std::min(made.size(), cavity.size())), cavity.end());
+    std::sort(unused.rbegin(), unused.rend());
+    for (uint32_t dead : unused) {
+      const uint32_t last = uint32_t(T.tets.size() - 1);
+      if (dead != last) {
+        T.tets[dead] = T.tets[last];
+        for (uint32_t c = 0; c < 4; ++c) {
+          const uint32_t n = adj.neighbour[size_t(last) * 4 + c];
+          adj.neighbour[size_t(dead) * 4 + c] = n;
+          if (n != Adjacency::kHull) adj.neighbour[n] = dead * 4 + c;
+        }
+      }
+      T.tets.pop_back();
+      adj.neighbour.resize(adj.neighbour.size() - 4);
+      in_cavity.pop_back();
+    }
+  }
+  return true;
+}
+
 std::array<uint32_t, 3> outward_face(const Tets& T, uint32_t tc) {
   const auto& v = T.tets[tc / 4];
   const int c = int(tc % 4);

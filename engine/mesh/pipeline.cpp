@@ -145,15 +145,14 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
 
   // Delaunay, labels, repair; where wrong faces are left (a triangle spanning a triple curve that is sampled too
-  // sparsely there), add the curve's closest point to the wrong face's centroid and start again.
+  // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization,
+  // or all points meshed afresh where an insertion is degenerate) and label again.
   begin("delaunay and extraction");
-  Tets T;
-  Adjacency adj;
+  Tets T = delaunay(points);
+  Adjacency adj = build_adjacency(T);
   std::vector<uint16_t> material, hull;
   for (int round = 0;; ++round) {
-    T = delaunay(points);
     material = label_tets(F.fields, T);
-    adj = build_adjacency(T);
     hull = hull_materials(F.fields, T, adj);
     if (round == 0) rep.wrong_faces_before_repair = wrong_faces(T, adj, hull, vertex_materials, material).size();
     rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
@@ -161,6 +160,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.wrong_faces = wrong.size();
     if (wrong.empty() || round == options.repair_rounds) break;
     size_t added = 0;
+    std::vector<glm::dvec3> extra;
+    std::vector<uint32_t> near_tet;
     for (uint32_t tc : wrong) {
       const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
       const auto f = outward_face(T, tc);
@@ -181,10 +182,16 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       for (uint32_t v : f) crowded = crowded || glm::length(points[v] - q) < 0.3 * cp.value.w;
       if (crowded) continue;
       add_vertex(q, uint32_t(curve), cp.value.w);
+      extra.push_back(q);
+      near_tet.push_back(tc / 4);
       ++added;
     }
     rep.added_curve_points += added;
     if (added == 0) break;
+    if (!insert_points(T, adj, extra, near_tet)) {
+      T = delaunay(points);
+      adj = build_adjacency(T);
+    }
   }
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);

@@ -84,6 +84,20 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
   return t;
 }
 
+void init_exact_predicates(const glm::dvec3& extent) { exactinit(0, 0, 0, extent.x, extent.y, extent.z); }
+
+double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  REAL pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z}, pd[3] = {d.x, d.y, d.z};
+  return orient3d(pa, pb, pc, pd);
+}
+
+double insphere_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
+                      const glm::dvec3& e) {
+  REAL pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z}, pd[3] = {d.x, d.y, d.z},
+       pe[3] = {e.x, e.y, e.z};
+  return insphere(pa, pb, pc, pd, pe);
+}
+
 void check_quality_options(const QualityOptions& options) {
   // TetGen's refinement is only known to end for looser bounds (1.1/20 ran without end on a small sphere).
   if (!(options.max_radius_edge >= 1.2) || !(options.min_dihedral <= 18.0) || options.min_dihedral < 0)

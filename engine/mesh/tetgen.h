@@ -24,6 +24,14 @@ struct Tets {
 // same place only the first is meshed; every output index refers to the input points.
 Tets delaunay(const std::vector<glm::dvec3>& points);
 
+// TetGen's exact predicates (Shewchuk's): orient3d's sign tells on which side of plane abc d lies (0: on it);
+// insphere is positive where e lies inside the sphere through abcd when orient3d(a, b, c, d) is positive, negative
+// inside when it is negative. extent: the largest absolute coordinate of the points tested (for the static filter).
+void init_exact_predicates(const glm::dvec3& extent);
+double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+double insphere_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
+                      const glm::dvec3& e);
+
 struct QualityOptions {
   double max_radius_edge = 1.5;  // TetGen -q ratio
   double min_dihedral = 12.0;    // degrees, TetGen -q second value
