@@ -78,7 +78,6 @@ bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& point
   auto orientation = [&](const std::array<uint32_t, 4>& v) {
     return orient3d_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]]);
   };
-  std::vector<uint8_t> in_cavity(T.tets.size(), 0);
   for (size_t i = 0; i < points.size(); ++i) {
     const glm::dvec3 q = points[i];
     // Locate: step across any face that separates q from the tet's opposite corner (a visibility walk; it ends on
@@ -100,22 +99,22 @@ bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& point
       }
     }
     if (!found) return false;
-    // The cavity: tets whose circumsphere holds q strictly, grown from t; its boundary faces (tet, corner).
+    // The cavity: tets whose circumsphere holds q strictly, grown from t; its boundary faces (tet, corner). A cavity
+    // is a few dozen tets: membership is a search of the list.
+    std::vector<uint32_t> cavity = {t};
+    auto in_cavity = [&](uint32_t u) { return std::find(cavity.begin(), cavity.end(), u) != cavity.end(); };
     auto inside = [&](uint32_t u) {
       const auto& v = T.tets[u];
       const double o = orientation(v);
       return o != 0 && insphere_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]], q) * o > 0;
     };
-    std::vector<uint32_t> cavity = {t};
     std::vector<std::pair<uint32_t, int>> boundary;
-    in_cavity[t] = 1;
     for (size_t k = 0; k < cavity.size(); ++k) {
       const uint32_t u = cavity[k];
       for (int c = 0; c < 4; ++c) {
         const uint32_t n = adj.neighbour[size_t(u) * 4 + size_t(c)];
-        if (n != Adjacency::kHull && in_cavity[n / 4]) continue;
+        if (n != Adjacency::kHull && in_cavity(n / 4)) continue;
         if (n != Adjacency::kHull && inside(n / 4)) {
-          in_cavity[n / 4] = 1;
           cavity.push_back(n / 4);
         } else {
           boundary.push_back({u, c});
@@ -136,7 +135,6 @@ bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& point
       flat = flat || !(before * after > 0);
       made.push_back(v);
     }
-    for (uint32_t u : cavity) in_cavity[u] = 0;
     // The faces through q pair up by their edge on the cavity's boundary (a closed surface: every edge twice).
     std::vector<std::pair<uint64_t, uint32_t>> edges;  // (edge key, made index * 4 + corner)
     for (size_t k = 0; k < made.size(); ++k) {
@@ -165,7 +163,6 @@ bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& point
       if (k >= cavity.size()) {
         T.tets.push_back({});
         adj.neighbour.resize(adj.neighbour.size() + 4, Adjacency::kHull);
-        in_cavity.push_back(0);
       }
     }
     for (size_t k = 0; k < made.size(); ++k) {
@@ -196,7 +193,6 @@ bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& point
       }
       T.tets.pop_back();
       adj.neighbour.resize(adj.neighbour.size() - 4);
-      in_cavity.pop_back();
     }
   }
   return true;

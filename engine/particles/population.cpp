@@ -246,18 +246,14 @@ void run_by_parity(const Tiles& tiles, Work&& work, Join&& join) {
   }
 }
 
-// A small counter-based generator (splitmix64) for the per-item random streams of parallel steps.
+// A small counter-based generator (splitmix64: a Weyl sequence through cell_hash, its finaliser) for the per-item
+// random streams of parallel steps.
 struct SplitMix {
   using result_type = uint64_t;
   uint64_t state;
   static constexpr uint64_t min() { return 0; }
   static constexpr uint64_t max() { return ~uint64_t(0); }
-  uint64_t operator()() {
-    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
+  uint64_t operator()() { return cell_hash(state += 0x9e3779b97f4a7c15ull); }
 };
 
 }  // namespace
@@ -486,7 +482,7 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
           for (size_t k = tiles.begin[t]; k < tiles.begin[t + 1]; ++k) {
             const uint32_t i = tiles.item[k], f = pop.features[i];
             if (capped && allow[f] <= 0) continue;
-            const double limit = (allow[f] > 0 ? options.readd_factor : options.accept_factor) * ideal_energy(E.features[f].kind);
+            const double limit = (allow[f] > 0 ? options.readd_factor : options.accept_factor) * ideal_of(i);
             const glm::vec4 parent = pop.particles[i];
             SplitMix stream{round_seed ^ (uint64_t(i) * 0xd1b54a32d192ed03ull)};
             std::normal_distribution<float> n01;
