@@ -37,7 +37,6 @@ layout(push_constant) uniform Push {
 } pc;
 
 #define CP_DIMS pc.dims_sub.xyz
-#define CP_SUB pc.dims_sub.w
 #define CP_SPACING pc.spacing.xyz
 #define CP_MASK pc.table_mask
 #define CP_CHUNK_BLOCKS pc.chunk_blocks

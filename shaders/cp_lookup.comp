@@ -21,7 +21,7 @@ layout(std430, binding = 7) readonly buffer Queries { vec4 queries[]; };
 layout(std430, binding = 8) writeonly buffer Results { vec4 results[]; };
 layout(std430, binding = 9) writeonly buffer Valid { uint valid_out[]; };
 layout(push_constant) uniform Push {
-  ivec4 dims_sub;  // grid dims, fine points per voxel and axis
+  ivec4 dims_sub;  // grid dims (w: sub, read as the specialization constant CP_SUB instead)
   vec4 spacing;    // xyz
   uint n;
   uint table_mask;
@@ -29,7 +29,6 @@ layout(push_constant) uniform Push {
 } pc;
 
 #define CP_DIMS pc.dims_sub.xyz
-#define CP_SUB pc.dims_sub.w
 #define CP_SPACING pc.spacing.xyz
 #define CP_MASK pc.table_mask
 #define CP_CHUNK_BLOCKS pc.chunk_blocks

@@ -80,6 +80,7 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
                      std::to_string(kFineChunks) + " x " + gpu::format_bytes(uint64_t(chunk_blocks) * block_bytes) +
                      "; use fewer subcells (--subcells), a coarser volume, or a device with a larger "
                      "maxStorageBufferRange");
+  chunks = uint32_t(std::max<size_t>(1, (total_blocks + chunk_blocks - 1) / chunk_blocks));
   const size_t per_block = size_t(E.sub * E.sub * E.sub);
   for (int c = 0; c < kFineChunks; ++c) {
     const size_t first = std::min(total_blocks, size_t(c) * chunk_blocks);
@@ -90,8 +91,6 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
   }
 }
 
-CpLookup::CpLookup(gpu::Context& ctx) : kernel_(ctx, shaders::cp_lookup) {}
-
 void CpLookup::record(gpu::Sequence& seq, const GpuEmbedding& e, const gpu::Buffer<glm::vec4>& queries,
                       const gpu::Buffer<glm::vec4>& results, const gpu::Buffer<uint32_t>& valid, uint32_t n) const {
   if (n > queries.size() || n > results.size() || n > valid.size()) throw gpu::Error("cp lookup: n exceeds a buffer");
@@ -101,7 +100,11 @@ void CpLookup::record(gpu::Sequence& seq, const GpuEmbedding& e, const gpu::Buff
     uint32_t n, table_mask, chunk_blocks;
   } push{glm::ivec4(e.dims, e.sub), glm::vec4(e.spacing, 0.0f), n, e.table_mask, e.chunk_blocks};
   static_assert(sizeof(push) == 44);
-  seq.dispatch(kernel_,
+  if (!kernel_ || spec_ != e.spec_constants()) {
+    spec_ = e.spec_constants();
+    kernel_.emplace(*ctx_, shaders::cp_lookup, spec_);
+  }
+  seq.dispatch(*kernel_,
                {e.tile_keys, e.tiles, e.tile_cells, e.fine[0], e.fine[1], e.fine[2], e.fine[3], queries, results, valid},
                push, n);
 }

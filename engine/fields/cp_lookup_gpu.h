@@ -2,6 +2,7 @@
 // The closest point embedding on the GPU and the batch lookup kernel (shaders/cp_lookup.comp). The particle system
 // binds the same buffers and includes shaders/shared/cp_lookup.glsl in its advection kernel.
 #include <array>
+#include <optional>
 #include <vector>
 
 #include "fields/closest_point_embedding.h"
@@ -37,21 +38,27 @@ struct GpuEmbedding {
   gpu::Buffer<uint32_t> tiles, tile_cells;
   std::array<gpu::Buffer<glm::vec4>, kFineChunks> fine;
   uint32_t chunk_blocks = 0;      // blocks per fine chunk
+  uint32_t chunks = 1;            // fine buffers that hold blocks (1..kFineChunks)
   glm::ivec3 dims;
   int sub;
   glm::vec3 spacing;
   uint32_t table_mask;
+  // Specialization constants of every kernel that includes shaders/shared/cp_lookup.glsl: sub, chunks.
+  std::vector<uint32_t> spec_constants() const { return {uint32_t(sub), chunks}; }
 };
 
 class CpLookup {
  public:
-  explicit CpLookup(gpu::Context& ctx);
+  explicit CpLookup(gpu::Context& ctx) : ctx_(&ctx) {}
   // queries: xyz local position, w = the feature id's bits (glm::uintBitsToFloat). results: closest point + sizing.
   void record(gpu::Sequence& seq, const GpuEmbedding& embedding, const gpu::Buffer<glm::vec4>& queries,
               const gpu::Buffer<glm::vec4>& results, const gpu::Buffer<uint32_t>& valid, uint32_t n) const;
 
  private:
-  gpu::Kernel kernel_;
+  gpu::Context* ctx_;
+  // The kernel specialised for the last embedding's GpuEmbedding::spec_constants (rebuilt when they change).
+  mutable std::vector<uint32_t> spec_;
+  mutable std::optional<gpu::Kernel> kernel_;
 };
 
 }  // namespace cpmesh::fields

@@ -52,7 +52,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       walk_(ctx),
       permute_(ctx),
       reduce_(ctx),
-      advect_(ctx, shaders::advect),
+      advect_(ctx, shaders::advect, embedding_->spec_constants()),
       population_flags_(ctx, shaders::population_flags),
       particles_(ctx, particles, "particles"),
       particles_spare_(ctx, n_, "particles (permuted)"),
