@@ -1,17 +1,18 @@
 #include "mesh/quality.h"
 
 #include <algorithm>
+#include <atomic>
+#include <limits>
 #include <cmath>
 #include <set>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
-#include "fields/grid.h"
 #include "io/synth_volumes.h"
 
 namespace cpmesh::mesh {
@@ -216,50 +217,81 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
                                                         const std::vector<uint8_t>* only) {
   std::vector<std::array<uint32_t, 2>> out;
   if (T.size() < 2) return out;
-  std::vector<double> lengths;
-  lengths.reserve(T.size());
-  for (const auto& t : T) lengths.push_back(glm::length(V[t[1]] - V[t[0]]));
-  std::nth_element(lengths.begin(), lengths.begin() + std::ptrdiff_t(lengths.size() / 2), lengths.end());
-  const double width = std::max(2 * lengths[lengths.size() / 2], 1e-9);
+  const uint32_t nt = uint32_t(T.size());
+  std::vector<double> lengths(nt);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t t = r.begin(); t < r.end(); ++t) lengths[t] = glm::length(V[T[t][1]] - V[T[t][0]]);
+  });
+  std::nth_element(lengths.begin(), lengths.begin() + std::ptrdiff_t(nt / 2), lengths.end());
+  double width = std::max(2 * lengths[nt / 2], 1e-9);
   auto box = [&](const std::array<uint32_t, 3>& t, glm::dvec3& lo, glm::dvec3& hi) {
     lo = glm::min(V[t[0]], glm::min(V[t[1]], V[t[2]]));
     hi = glm::max(V[t[0]], glm::max(V[t[1]], V[t[2]]));
   };
-  std::unordered_map<uint64_t, std::vector<uint32_t>> cells;
-  auto for_cells = [&](const glm::dvec3& lo, const glm::dvec3& hi, auto&& visit) {
-    const glm::ivec3 a(glm::floor(lo / width)), b(glm::floor(hi / width));
-    for (int z = a.z; z <= b.z; ++z)
-      for (int y = a.y; y <= b.y; ++y)
-        for (int x = a.x; x <= b.x; ++x) visit(fields::cell_key({x, y, z}));
+  // A dense grid over the triangles' bounding box, its cells' triangle lists by counting sort (every step parallel:
+  // the smoothing calls this once per round on meshes of millions of triangles). At most 2 cells per triangle: a
+  // wider cell where the surface is sparse in a large box.
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const auto& t : T)
+    for (uint32_t v : t) {
+      lo = glm::min(lo, V[v]);
+      hi = glm::max(hi, V[v]);
+    }
+  glm::dvec3 extent = hi - lo;
+  const double max_cells = 2.0 * double(nt) + 64.0;
+  const double cells_wanted = (extent.x / width + 1) * (extent.y / width + 1) * (extent.z / width + 1);
+  if (cells_wanted > max_cells) width *= std::cbrt(cells_wanted / max_cells) * 1.01;
+  const glm::ivec3 dims = glm::ivec3(glm::floor(extent / width)) + 1;
+  const size_t cells = size_t(dims.x) * size_t(dims.y) * size_t(dims.z);
+  auto cell_of = [&](const glm::dvec3& p) { return glm::clamp(glm::ivec3(glm::floor((p - lo) / width)), glm::ivec3(0), dims - 1); };
+  auto for_cells = [&](const glm::dvec3& a, const glm::dvec3& b, auto&& visit) {
+    const glm::ivec3 ca = cell_of(a), cb = cell_of(b);
+    for (int z = ca.z; z <= cb.z; ++z)
+      for (int y = ca.y; y <= cb.y; ++y)
+        for (int x = ca.x; x <= cb.x; ++x) visit((size_t(z) * size_t(dims.y) + size_t(y)) * size_t(dims.x) + size_t(x));
   };
-  for (uint32_t t = 0; t < T.size(); ++t) {
-    glm::dvec3 lo, hi;
-    box(T[t], lo, hi);
-    for_cells(lo, hi, [&](uint64_t key) { cells[key].push_back(t); });
-  }
-  std::vector<std::vector<std::array<uint32_t, 2>>> found(T.size());
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(T.size()), 256), [&](const tbb::blocked_range<uint32_t>& r) {
+  std::vector<std::atomic<uint32_t>> count(cells + 1);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t t = r.begin(); t < r.end(); ++t) {
+      glm::dvec3 a, b;
+      box(T[t], a, b);
+      for_cells(a, b, [&](size_t c) { count[c + 1].fetch_add(1, std::memory_order_relaxed); });
+    }
+  });
+  std::vector<uint32_t> start(cells + 1, 0);
+  for (size_t c = 0; c < cells; ++c) start[c + 1] = start[c] + count[c + 1].load(std::memory_order_relaxed);
+  for (size_t c = 0; c < cells; ++c) count[c].store(start[c], std::memory_order_relaxed);
+  std::vector<uint32_t> in_cell(start[cells]);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t t = r.begin(); t < r.end(); ++t) {
+      glm::dvec3 a, b;
+      box(T[t], a, b);
+      for_cells(a, b, [&](size_t c) { in_cell[count[c].fetch_add(1, std::memory_order_relaxed)] = t; });
+    }
+  });
+  tbb::enumerable_thread_specific<std::vector<std::array<uint32_t, 2>>> found;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 256), [&](const tbb::blocked_range<uint32_t>& r) {
+    auto& mine = found.local();
     std::vector<uint32_t> seen;
     for (uint32_t t = r.begin(); t < r.end(); ++t) {
       if (only && !(*only)[t]) continue;
-      glm::dvec3 lo, hi;
-      box(T[t], lo, hi);
+      glm::dvec3 a, b;
+      box(T[t], a, b);
       seen.clear();
-      for_cells(lo, hi, [&](uint64_t key) {
-        const auto it = cells.find(key);
-        if (it == cells.end()) return;
-        for (uint32_t u : it->second) {
+      for_cells(a, b, [&](size_t c) {
+        for (uint32_t k = start[c]; k < start[c + 1]; ++k) {
+          const uint32_t u = in_cell[k];
           if (u == t || (u < t && (!only || (*only)[u]))) continue;  // each pair once
           glm::dvec3 ulo, uhi;
           box(T[u], ulo, uhi);
-          if (glm::any(glm::lessThan(uhi, lo)) || glm::any(glm::greaterThan(ulo, hi))) continue;
+          if (glm::any(glm::lessThan(uhi, a)) || glm::any(glm::greaterThan(ulo, b))) continue;
           seen.push_back(u);
         }
       });
       std::sort(seen.begin(), seen.end());
       seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
       for (uint32_t u : seen)
-        if (triangles_cross(V, T[t], T[u])) found[t].push_back({std::min(t, u), std::max(t, u)});
+        if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
     }
   });
   for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());

@@ -65,8 +65,10 @@ JunctionError junction_error(const io::Junctions& junctions, const std::vector<s
 // Two triangles that are not coplanar intersect exactly when an edge of one crosses the other; triangles sharing a
 // vertex can only cross along their edges opposite it, and triangles sharing an edge are left to the flip checks.
 // Strict sign tests in double precision: touching counts as not crossing. With `only` (one flag per triangle), only
-// pairs with at least one flagged triangle are tested. Triangles go into hashed cubic cells of twice the median
-// edge length, each into every cell its bounding box meets.
+// pairs with at least one flagged triangle are tested. Triangles go into the cubic cells of a dense grid over their
+// bounding box (twice the median edge length, wider where that would make over two cells per triangle), each into
+// every cell its bounding box meets, by a parallel counting sort. Measured on a 3.33 M-triangle sphere (2 cores):
+// 1.4-1.7 s, against 3.1 s with hashed cells filled by one thread, which bounded the smoothing at scale.
 std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::dvec3>& vertices,
                                                         const std::vector<std::array<uint32_t, 3>>& triangles,
                                                         const std::vector<uint8_t>* only = nullptr);

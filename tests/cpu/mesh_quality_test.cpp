@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <random>
 
 #include "io/synth_volumes.h"
 #include "mesh/quality.h"
@@ -62,4 +63,47 @@ TEST_CASE("crossing_triangles: triangles through each other, and shared or touch
   CHECK(mesh::crossing_triangles(V, T, &only) == std::vector<std::array<uint32_t, 2>>{{5, 6}});
   only = {0, 0, 1, 1, 1, 0, 0, 1, 1};
   CHECK(mesh::crossing_triangles(V, T, &only).empty());
+}
+
+TEST_CASE("crossing_triangles: the grid finds every crossing pair that testing all pairs finds, dense and sparse") {
+  // Random small triangles in a cluster 7 units wide, where the grid's cells (twice the median edge) are a few
+  // units wide and triangles span several; then with a second cluster 1000 units away, a bounding box so sparse that
+  // the grid widens its cells. The answer must be the all-pairs one (each pair tested on its own), with and without
+  // flags.
+  for (int clusters = 1; clusters <= 2; ++clusters) {
+    CAPTURE(clusters);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<glm::dvec3> V;
+    std::vector<std::array<uint32_t, 3>> T;
+    for (int cluster = 0; cluster < clusters; ++cluster)
+      for (int t = 0; t < 250; ++t) {
+        const glm::dvec3 centre = glm::dvec3(cluster * 1000.0) + 7.0 * glm::dvec3(unit(rng), unit(rng), unit(rng));
+        const double size = t % 25 == 0 ? 6.0 : 1.5;
+        const auto base = uint32_t(V.size());
+        for (int k = 0; k < 3; ++k)
+          V.push_back(centre + size * glm::dvec3(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5));
+        T.push_back({base, base + 1, base + 2});
+      }
+    // Some shared vertices too: triangles that share one cross only through the edge opposite it.
+    for (int t = 0; t < 40; ++t) {
+      const auto a = uint32_t(rng() % V.size());
+      const glm::dvec3 centre = V[a];
+      const auto base = uint32_t(V.size());
+      for (int k = 0; k < 2; ++k) V.push_back(centre + 2.0 * glm::dvec3(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5));
+      T.push_back({a, base, base + 1});
+    }
+    std::vector<uint8_t> only(T.size());
+    for (auto& f : only) f = uint8_t(rng() % 3 == 0);
+    std::vector<std::array<uint32_t, 2>> all, flagged;
+    for (uint32_t t = 0; t < T.size(); ++t)
+      for (uint32_t u = t + 1; u < T.size(); ++u)
+        if (!mesh::crossing_triangles(V, {T[t], T[u]}).empty()) {
+          all.push_back({t, u});
+          if (only[t] || only[u]) flagged.push_back({t, u});
+        }
+    REQUIRE(all.size() > 50);  // dense enough to test something
+    CHECK(mesh::crossing_triangles(V, T) == all);
+    CHECK(mesh::crossing_triangles(V, T, &only) == flagged);
+  }
 }
