@@ -35,17 +35,28 @@ size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<st
     ++undone;
     return true;
   };
-  std::vector<uint8_t> moved(T.size());
+  auto flipped = [&](const std::array<uint32_t, 3>& t) {
+    return glm::dot(normal_of(V[t[0]], V[t[1]], V[t[2]]), normal_of(start[t[0]], start[t[1]], start[t[2]])) <= 0;
+  };
+  std::vector<uint8_t> moved(T.size()), flip(T.size());
+  const tbb::blocked_range<size_t> all(0, T.size(), 4096);
   for (;;) {
-    for (size_t t = 0; t < T.size(); ++t) moved[t] = V[T[t][0]] != start[T[t][0]] || V[T[t][1]] != start[T[t][1]] ||
-                                                     V[T[t][2]] != start[T[t][2]];
+    tbb::parallel_for(all, [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t < r.end(); ++t)
+        moved[t] = V[T[t][0]] != start[T[t][0]] || V[T[t][1]] != start[T[t][1]] || V[T[t][2]] != start[T[t][2]];
+    });
     bool changed = false;
     for (const auto& pair : crossing_triangles(V, T, &moved))
       for (uint32_t t : pair)
         for (uint32_t v : T[t]) changed |= undo(v);
-    for (const auto& t : T)
-      if (glm::dot(normal_of(V[t[0]], V[t[1]], V[t[2]]), normal_of(start[t[0]], start[t[1]], start[t[2]])) <= 0)
-        for (uint32_t v : t) changed |= undo(v);
+    // Flipped triangles: found in parallel, then undone in triangle order, each checked again against the moves
+    // undone before it (a triangle that an undo flips is found in the next pass).
+    tbb::parallel_for(all, [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t < r.end(); ++t) flip[t] = uint8_t(moved[t] && flipped(T[t]));
+    });
+    for (size_t t = 0; t < T.size(); ++t)
+      if (flip[t] && flipped(T[t]))
+        for (uint32_t v : T[t]) changed |= undo(v);
     if (!changed) return undone;
   }
 }
