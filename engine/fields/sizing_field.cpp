@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
-#include <queue>
+#include <atomic>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -306,32 +307,51 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     cell_h = std::min(cell_h, std::clamp(h, h_min, h_max));
   }
 
-  // 3. Grading: Dijkstra over the 26-neighbourhood of the band's cells enforces h(c) <= h(n) + grading * |c - n|.
-  using Item = std::pair<double, size_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  // A cell can lower a neighbour only when its h is below h_max by more than grading x the shortest step (every h is
-  // at most h_max): the rest, the flat parts' h_max cells, start outside the queue (and enter it if lowered).
+  // 3. Grading: h(c) <= h(n) + grading * |c - n| over the 26-neighbourhood of the band's cells, by relaxation from
+  //    a frontier, all of it in parallel: each frontier cell offers its h + grading * step to its neighbours (an
+  //    atomic minimum), and the cells it lowered are the next frontier. The result is the least fixed point, the
+  //    smallest h(s) + grading * path length over every source cell s and path of steps: what a Dijkstra from every
+  //    cell gives, on any number of threads. (A Dijkstra on one thread was 4.9 of this stage's 13.1 s on the
+  //    200-voxel head phantom, 2 threads: most of it on a 16-core machine.)
+  //    A cell can lower a neighbour only when its h is below h_max by more than grading x the shortest step (every
+  //    h is at most h_max): the rest, the flat parts' h_max cells, start outside the frontier (and enter it if
+  //    lowered).
   const double lowers_below = h_max - options.grading * grid.min_spacing();
+  std::vector<uint32_t> frontier;
   for (size_t c = 0; c < cells.size(); ++c)
-    if (hc[c] < lowers_below) queue.push({hc[c], c});
-  while (!queue.empty()) {
-    const auto [h, c] = queue.top();
-    queue.pop();
-    if (h > hc[c]) continue;
-    const glm::ivec3 v = grid.voxel(cells[c]);
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const glm::ivec3 w = v + glm::ivec3(dx, dy, dz);
-          if ((dx | dy | dz) == 0 || !grid.inside(w.x, w.y, w.z)) continue;
+    if (hc[c] < lowers_below) frontier.push_back(uint32_t(c));
+  std::vector<std::atomic<uint8_t>> queued(cells.size());
+  double step_length[27];
+  for (int d = 0; d < 27; ++d)
+    step_length[d] = options.grading * glm::length(glm::dvec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1) * grid.spacing);
+  tbb::enumerable_thread_specific<std::vector<uint32_t>> lowered;
+  while (!frontier.empty()) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, frontier.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+      auto& next = lowered.local();
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        const uint32_t c = frontier[k];
+        const double h = std::atomic_ref<double>(hc[c]).load(std::memory_order_relaxed);
+        const glm::ivec3 v = grid.voxel(cells[c]);
+        for (int d = 0; d < 27; ++d) {
+          const glm::ivec3 w = v + glm::ivec3(d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1);
+          if (d == 13 || !grid.inside(w.x, w.y, w.z)) continue;
           const int64_t n = cell_slot(grid.index(w.x, w.y, w.z));
           if (n < 0) continue;
-          const double candidate = h + options.grading * glm::length(glm::dvec3(dx, dy, dz) * grid.spacing);
-          if (candidate < hc[size_t(n)]) {
-            hc[size_t(n)] = candidate;
-            queue.push({candidate, size_t(n)});
+          const double candidate = h + step_length[d];
+          std::atomic_ref<double> target(hc[size_t(n)]);
+          double current = target.load(std::memory_order_relaxed);
+          while (candidate < current && !target.compare_exchange_weak(current, candidate, std::memory_order_relaxed)) {
           }
+          if (candidate < current && !queued[size_t(n)].exchange(1, std::memory_order_relaxed)) next.push_back(uint32_t(n));
         }
+      }
+    });
+    frontier.clear();
+    for (auto& next : lowered) {
+      frontier.insert(frontier.end(), next.begin(), next.end());
+      next.clear();
+    }
+    for (uint32_t c : frontier) queued[c].store(0, std::memory_order_relaxed);
   }
 
   // 4. Every fine point: the graded cell field at its closest point (trilinear over the band cells there), so h is

@@ -65,6 +65,40 @@ TEST_CASE("a thin slab limits h by its thickness, and h is graded away from it")
   }
 }
 
+TEST_CASE("grading spreads a thin part's small h along the surface at the grading rate, and no further") {
+  // Material 1 is 3 voxels thick (z = 10..12) for x < 12 and 12 voxels thick (z = 10..21) beyond: its bottom face
+  // z = 9.5 runs flat across the step. On the thin part h is about 1.5 (its half thickness, density 1); on the thick
+  // part it would be 6, clamped to h_max = 4, but grading caps it at about 1.5 + grading x the distance to the step.
+  fields::Grid g{{36, 24, 32}, {1, 1, 1}, {0, 0, 0}};
+  std::vector<uint16_t> labels(g.voxel_count());
+  for (int k = 0; k < 32; ++k)
+    for (int j = 0; j < 24; ++j)
+      for (int i = 0; i < 36; ++i) labels[g.index(i, j, k)] = (k >= 10 && k <= (i < 12 ? 12 : 21)) ? 1 : 0;
+  const auto F = build_indicator_fields(g, labels.data());
+  auto E = build_closest_point_embedding(F);
+  SizingOptions opt;
+  opt.density = 1.0;
+  opt.h_max = 4.0;
+  compute_sizing_field(F, E, opt);
+  size_t near_step = 0, far = 0;
+  for (const auto& p : E.fine) {
+    if (std::fabs(p.z - 9.5f) > 0.25f || p.y < 5.0f || p.y > 18.0f) continue;  // the bottom face, away from the sides
+    const double d = p.x - 11.5;  // from the step
+    if (d >= 0.5 && d <= 4.0) {
+      ++near_step;
+      // Paths of 26-neighbour steps are at most 8% longer than straight; the thin part's h near the step and the
+      // interpolation between cells add the rest.
+      CHECK(p.w <= 1.5 + opt.grading * 1.08 * d + 0.6);
+    }
+    if (d >= 10.0 && p.x <= 30.0f) {
+      ++far;
+      CHECK(p.w >= 3.5);  // grading lowers h only as far as it must
+    }
+  }
+  CHECK(near_step > 20);
+  CHECK(far > 20);
+}
+
 TEST_CASE("fit_local_curve: a circle's curvature and a line's") {
   for (const double radius : {4.0, 6.0, 12.0}) {
     CAPTURE(radius);
