@@ -1,10 +1,14 @@
 #include "io/mesh_writers.h"
 
+#include <charconv>
 #include <cmath>
 #include <cstring>
-#include <iomanip>
 #include <map>
 #include <ostream>
+#include <string>
+#include <type_traits>
+
+#include <tbb/parallel_for.h>
 
 #include "io/atomic_file.h"
 #include "io/error.h"
@@ -74,33 +78,82 @@ std::array<double, 3> normal_of(const TriangleMesh& m, const std::array<uint32_t
   return n;
 }
 
-// Ascii arrays of VTK XML files.
-template <typename Range, typename F>
-void vtk_array(std::ostream& out, const char* type, const char* name, int components, const Range& items, F each) {
+// Text output of numbers by std::to_chars: integers, and floating-point values in the shortest form that reads back
+// to the same value (what setprecision(17) guaranteed, in fewer characters).
+class Text {
+ public:
+  explicit Text(std::string& s) : s_(s) {}
+  Text& operator<<(char c) {
+    s_.push_back(c);
+    return *this;
+  }
+  Text& operator<<(const char* c) {
+    s_.append(c);
+    return *this;
+  }
+  template <typename T>
+    requires std::is_arithmetic_v<T>
+  Text& operator<<(T v) {
+    char b[32];
+    const auto r = sizeof(T) == 1 ? std::to_chars(b, b + sizeof b, unsigned(v)) : std::to_chars(b, b + sizeof b, v);
+    s_.append(b, r.ptr);
+    return *this;
+  }
+
+ private:
+  std::string& s_;
+};
+
+// Lines for items 0..n-1: line(text, i) formats item i. Chunks of items are formatted in parallel and written in
+// order, a batch at a time (a text writer printing one number at a time through the stream took 6.6 s for a
+// million points and five million tets here; meshes of twenty million tets are written at the paper's density).
+template <typename F>
+void write_lines(std::ostream& out, size_t n, F&& line) {
+  constexpr size_t kChunk = 8192, kBatch = 64;
+  std::vector<std::string> text;
+  for (size_t first = 0; first < n; first += kChunk * kBatch) {
+    const size_t chunks = std::min(kBatch, (n - first + kChunk - 1) / kChunk);
+    text.assign(chunks, std::string());
+    tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+      Text t(text[c]);
+      const size_t lo = first + c * kChunk, hi = std::min(n, lo + kChunk);
+      for (size_t i = lo; i < hi; ++i) line(t, i);
+    });
+    for (const auto& s : text) out.write(s.data(), std::streamsize(s.size()));
+  }
+}
+
+// Ascii arrays of VTK XML files: each(text, i) writes item i's components.
+template <typename F>
+void vtk_array(std::ostream& out, const char* type, const char* name, int components, size_t n, F each) {
   out << "        <DataArray type=\"" << type << "\"" << (name ? std::string(" Name=\"") + name + "\"" : "")
       << " NumberOfComponents=\"" << components << "\" format=\"ascii\">\n";
-  for (const auto& item : items) {
-    out << "         ";
-    each(item);
-    out << '\n';
-  }
+  write_lines(out, n, [&](Text& t, size_t i) {
+    t << "         ";
+    each(t, i);
+    t << '\n';
+  });
   out << "        </DataArray>\n";
 }
 
 void vtk_points(std::ostream& out, const std::vector<std::array<double, 3>>& vertices) {
   out << "      <Points>\n";
-  vtk_array(out, "Float64", "Points", 3, vertices, [&](const auto& p) { out << p[0] << ' ' << p[1] << ' ' << p[2]; });
+  vtk_array(out, "Float64", "Points", 3, vertices.size(), [&](Text& t, size_t v) {
+    const auto& p = vertices[v];
+    t << p[0] << ' ' << p[1] << ' ' << p[2];
+  });
   out << "      </Points>\n";
 }
 
 template <size_t N>
 void vtk_cells(std::ostream& out, const std::vector<std::array<uint32_t, N>>& cells) {
-  vtk_array(out, "Int64", "connectivity", 1, cells, [&](const auto& c) {
-    for (size_t i = 0; i < N; ++i) out << c[i] << (i + 1 < N ? " " : "");
+  vtk_array(out, "Int64", "connectivity", 1, cells.size(), [&](Text& t, size_t c) {
+    for (size_t i = 0; i < N; ++i) {
+      t << cells[c][i];
+      if (i + 1 < N) t << ' ';
+    }
   });
-  std::vector<size_t> offsets(cells.size());
-  for (size_t i = 0; i < cells.size(); ++i) offsets[i] = (i + 1) * N;
-  vtk_array(out, "Int64", "offsets", 1, offsets, [&](size_t o) { out << o; });
+  vtk_array(out, "Int64", "offsets", 1, cells.size(), [&](Text& t, size_t c) { t << uint64_t((c + 1) * N); });
 }
 
 }  // namespace
@@ -139,12 +192,17 @@ void write_obj(const std::string& path, const TriangleMesh& m) {
   std::map<std::array<uint16_t, 2>, std::vector<size_t>> groups;
   for (size_t t = 0; t < m.triangles.size(); ++t) groups[pair_of(m, t)].push_back(t);
   write_atomically(path, [&](std::ostream& out) {
-    out << "# cpmesh interface mesh: one group per material pair\n" << std::setprecision(17);
-    for (const auto& p : m.vertices) out << "v " << p[0] << ' ' << p[1] << ' ' << p[2] << '\n';
+    out << "# cpmesh interface mesh: one group per material pair\n";
+    write_lines(out, m.vertices.size(), [&](Text& t, size_t v) {
+      const auto& p = m.vertices[v];
+      t << "v " << p[0] << ' ' << p[1] << ' ' << p[2] << '\n';
+    });
     for (const auto& [pair, tris] : groups) {
       out << "g interface_" << pair[0] << '_' << pair[1] << '\n';
-      for (size_t t : tris)
-        out << "f " << m.triangles[t][0] + 1 << ' ' << m.triangles[t][1] + 1 << ' ' << m.triangles[t][2] + 1 << '\n';
+      write_lines(out, tris.size(), [&](Text& t, size_t k) {
+        const auto& tri = m.triangles[tris[k]];
+        t << "f " << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
+      });
     }
   });
 }
@@ -170,29 +228,24 @@ void write_stl(const std::string& path, const TriangleMesh& m) {
 void write_vtp(const std::string& path, const TriangleMesh& m) {
   check(m, path);
   write_atomically(path, [&](std::ostream& out) {
-    out << std::setprecision(17)
-        << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+    out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
            "header_type=\"UInt64\">\n  <PolyData>\n    <Piece NumberOfPoints=\""
         << m.vertices.size() << "\" NumberOfPolys=\"" << m.triangles.size() << "\">\n";
     vtk_points(out, m.vertices);
     out << "      <Polys>\n";
     vtk_cells(out, m.triangles);
     out << "      </Polys>\n      <CellData Scalars=\"material_pair\">\n";
-    std::vector<size_t> ids(m.triangles.size());
-    for (size_t t = 0; t < ids.size(); ++t) ids[t] = t;
-    vtk_array(out, "UInt16", "material_pair", 2, ids, [&](size_t t) {
-      const auto p = pair_of(m, t);
-      out << p[0] << ' ' << p[1];
+    vtk_array(out, "UInt16", "material_pair", 2, m.triangles.size(), [&](Text& t, size_t c) {
+      const auto p = pair_of(m, c);
+      t << p[0] << ' ' << p[1];
     });
     out << "      </CellData>\n      <PointData Scalars=\"feature\">\n";
-    std::vector<size_t> vids(m.vertices.size());
-    for (size_t v = 0; v < vids.size(); ++v) vids[v] = v;
-    vtk_array(out, "UInt8", "feature", 1, vids, [&](size_t v) { out << int(feature_of(m, v)); });
+    vtk_array(out, "UInt8", "feature", 1, m.vertices.size(), [&](Text& t, size_t v) { t << feature_of(m, v); });
     for (const auto& [name, values] : m.vertex_scalars) {
       if (values.size() != m.vertices.size())
         fail(path, "vertex array '" + name + "' has " + std::to_string(values.size()) + " values for " +
                        std::to_string(m.vertices.size()) + " vertices");
-      vtk_array(out, "Float32", name.c_str(), 1, vids, [&](size_t v) { out << values[v]; });
+      vtk_array(out, "Float32", name.c_str(), 1, values.size(), [&](Text& t, size_t v) { t << values[v]; });
     }
     out << "      </PointData>\n    </Piece>\n  </PolyData>\n</VTKFile>\n";
   });
@@ -212,18 +265,22 @@ void write_medit(const std::string& path, const TetMesh& m) {
   std::vector<int32_t> refs;
   for (const auto& p : m.triangle_pair) refs.push_back(pair_reference(p, path));
   write_atomically(path, [&](std::ostream& out) {
-    out << std::setprecision(17) << "MeshVersionFormatted 2\n# cpmesh: triangle reference = 1000 * a + b for "
+    out << "MeshVersionFormatted 2\n# cpmesh: triangle reference = 1000 * a + b for "
         << "materials a < b; tetrahedron reference = material\nDimension 3\nVertices\n" << m.vertices.size() << '\n';
-    for (const auto& p : m.vertices) out << p[0] << ' ' << p[1] << ' ' << p[2] << " 0\n";
+    write_lines(out, m.vertices.size(), [&](Text& t, size_t v) {
+      const auto& p = m.vertices[v];
+      t << p[0] << ' ' << p[1] << ' ' << p[2] << " 0\n";
+    });
     out << "Triangles\n" << m.triangles.size() << '\n';
-    for (size_t t = 0; t < m.triangles.size(); ++t)
-      out << m.triangles[t][0] + 1 << ' ' << m.triangles[t][1] + 1 << ' ' << m.triangles[t][2] + 1 << ' ' << refs[t]
-          << '\n';
+    write_lines(out, m.triangles.size(), [&](Text& t, size_t c) {
+      const auto& tri = m.triangles[c];
+      t << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << ' ' << refs[c] << '\n';
+    });
     out << "Tetrahedra\n" << m.tets.size() << '\n';
-    for (size_t t = 0; t < m.tets.size(); ++t) {
-      for (uint32_t v : m.tets[t]) out << v + 1 << ' ';
-      out << m.tet_material[t] << '\n';
-    }
+    write_lines(out, m.tets.size(), [&](Text& t, size_t c) {
+      for (uint32_t v : m.tets[c]) t << v + 1 << ' ';
+      t << m.tet_material[c] << '\n';
+    });
     out << "End\n";
   });
 }
@@ -231,16 +288,15 @@ void write_medit(const std::string& path, const TetMesh& m) {
 void write_vtu(const std::string& path, const TetMesh& m) {
   check(m, path);
   write_atomically(path, [&](std::ostream& out) {
-    out << std::setprecision(17)
-        << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+    out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
            "header_type=\"UInt64\">\n  <UnstructuredGrid>\n    <Piece NumberOfPoints=\""
         << m.vertices.size() << "\" NumberOfCells=\"" << m.tets.size() << "\">\n";
     vtk_points(out, m.vertices);
     out << "      <Cells>\n";
     vtk_cells(out, m.tets);
-    vtk_array(out, "UInt8", "types", 1, m.tets, [&](const auto&) { out << 10; });  // VTK_TETRA
+    vtk_array(out, "UInt8", "types", 1, m.tets.size(), [&](Text& t, size_t) { t << 10; });  // VTK_TETRA
     out << "      </Cells>\n      <CellData Scalars=\"material\">\n";
-    vtk_array(out, "UInt16", "material", 1, m.tet_material, [&](uint16_t l) { out << l; });
+    vtk_array(out, "UInt16", "material", 1, m.tet_material.size(), [&](Text& t, size_t c) { t << m.tet_material[c]; });
     out << "      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
   });
 }
@@ -250,23 +306,26 @@ void write_tetgen(const std::string& base, const TetMesh& m) {
   std::vector<int32_t> refs;
   for (const auto& p : m.triangle_pair) refs.push_back(pair_reference(p, base + ".face"));
   write_atomically(base + ".node", [&](std::ostream& out) {
-    out << std::setprecision(17) << m.vertices.size() << " 3 0 0\n";
-    for (size_t v = 0; v < m.vertices.size(); ++v)
-      out << v + 1 << ' ' << m.vertices[v][0] << ' ' << m.vertices[v][1] << ' ' << m.vertices[v][2] << '\n';
+    out << m.vertices.size() << " 3 0 0\n";
+    write_lines(out, m.vertices.size(), [&](Text& t, size_t v) {
+      const auto& p = m.vertices[v];
+      t << v + 1 << ' ' << p[0] << ' ' << p[1] << ' ' << p[2] << '\n';
+    });
   });
   write_atomically(base + ".ele", [&](std::ostream& out) {
     out << m.tets.size() << " 4 1\n";
-    for (size_t t = 0; t < m.tets.size(); ++t) {
-      out << t + 1;
-      for (uint32_t v : m.tets[t]) out << ' ' << v + 1;
-      out << ' ' << m.tet_material[t] << '\n';
-    }
+    write_lines(out, m.tets.size(), [&](Text& t, size_t c) {
+      t << c + 1;
+      for (uint32_t v : m.tets[c]) t << ' ' << v + 1;
+      t << ' ' << m.tet_material[c] << '\n';
+    });
   });
   write_atomically(base + ".face", [&](std::ostream& out) {
     out << m.triangles.size() << " 1\n";
-    for (size_t t = 0; t < m.triangles.size(); ++t)
-      out << t + 1 << ' ' << m.triangles[t][0] + 1 << ' ' << m.triangles[t][1] + 1 << ' ' << m.triangles[t][2] + 1
-          << ' ' << refs[t] << '\n';
+    write_lines(out, m.triangles.size(), [&](Text& t, size_t c) {
+      const auto& tri = m.triangles[c];
+      t << c + 1 << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << ' ' << refs[c] << '\n';
+    });
   });
 }
 
