@@ -4,20 +4,29 @@
 
 namespace cpmesh::ref {
 
-float weno4(float f0, float f1, float f2, float f3, float t) {
+namespace {
+
+// For float and for glm::vec4, lane by lane the same float32 operations (the lookup interpolates the four components
+// of its fine points at once).
+template <typename T>
+T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
   // Two quadratic interpolants, on {-1, 0, 1} and {0, 1, 2}; ideal weights (2 - t)/3 and (t + 1)/3 make their blend
   // the cubic interpolant; the smoothness indicators are written in differences from the centre values so float32
   // keeps them accurate when the values (coordinates) are large.
-  const float p1 = f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t;
-  const float p2 = f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
-  const float a = f0 - f1, b = f2 - f1, c = f1 - f2, d = f3 - f2;
-  const float is1 = (13.0f * a * a + 26.0f * a * b + 25.0f * b * b) / 12.0f;
-  const float is2 = (25.0f * c * c + 26.0f * c * d + 13.0f * d * d) / 12.0f;
+  const T p1 = f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t;
+  const T p2 = f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
+  const T a = f0 - f1, b = f2 - f1, c = f1 - f2, d = f3 - f2;
+  const T is1 = (13.0f * a * a + 26.0f * a * b + 25.0f * b * b) / 12.0f;
+  const T is2 = (25.0f * c * c + 26.0f * c * d + 13.0f * d * d) / 12.0f;
   const float eps = 1e-6f;
-  const float alpha1 = ((2.0f - t) / 3.0f) / ((eps + is1) * (eps + is1));
-  const float alpha2 = ((t + 1.0f) / 3.0f) / ((eps + is2) * (eps + is2));
+  const T alpha1 = ((2.0f - t) / 3.0f) / ((eps + is1) * (eps + is1));
+  const T alpha2 = ((t + 1.0f) / 3.0f) / ((eps + is2) * (eps + is2));
   return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
 }
+
+}  // namespace
+
+float weno4(float f0, float f1, float f2, float f3, float t) { return weno4_of(f0, f1, f2, f3, t); }
 
 CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& local, uint32_t feature) {
   CpResult r;
@@ -51,11 +60,9 @@ CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& loca
       }
   glm::vec4 vy[4][4], vz[4];
   for (int z = 0; z < 4; ++z)
-    for (int y = 0; y < 4; ++y)
-      for (int c = 0; c < 4; ++c) vy[z][y][c] = weno4(v[z][y][0][c], v[z][y][1][c], v[z][y][2][c], v[z][y][3][c], t.x);
-  for (int z = 0; z < 4; ++z)
-    for (int c = 0; c < 4; ++c) vz[z][c] = weno4(vy[z][0][c], vy[z][1][c], vy[z][2][c], vy[z][3][c], t.y);
-  for (int c = 0; c < 4; ++c) r.value[c] = weno4(vz[0][c], vz[1][c], vz[2][c], vz[3][c], t.z);
+    for (int y = 0; y < 4; ++y) vy[z][y] = weno4_of(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x);
+  for (int z = 0; z < 4; ++z) vz[z] = weno4_of(vy[z][0], vy[z][1], vy[z][2], vy[z][3], t.y);
+  r.value = weno4_of(vz[0], vz[1], vz[2], vz[3], t.z);
   r.valid = true;
   return r;
 }
