@@ -233,17 +233,22 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
   // wider cell where the surface is sparse in a large box.
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
   for (const auto& t : T)
-    for (uint32_t v : t) {
-      lo = glm::min(lo, V[v]);
-      hi = glm::max(hi, V[v]);
-    }
-  glm::dvec3 extent = hi - lo;
+    for (uint32_t v : t)
+      if (std::isfinite(V[v].x + V[v].y + V[v].z)) {  // (a non-finite vertex goes to a face cell; it crosses nothing)
+        lo = glm::min(lo, V[v]);
+        hi = glm::max(hi, V[v]);
+      }
+  if (!(lo.x <= hi.x)) return out;
+  const glm::dvec3 extent = hi - lo;
   const double max_cells = 2.0 * double(nt) + 64.0;
   const double cells_wanted = (extent.x / width + 1) * (extent.y / width + 1) * (extent.z / width + 1);
   if (cells_wanted > max_cells) width *= std::cbrt(cells_wanted / max_cells) * 1.01;
   const glm::ivec3 dims = glm::ivec3(glm::floor(extent / width)) + 1;
   const size_t cells = size_t(dims.x) * size_t(dims.y) * size_t(dims.z);
-  auto cell_of = [&](const glm::dvec3& p) { return glm::clamp(glm::ivec3(glm::floor((p - lo) / width)), glm::ivec3(0), dims - 1); };
+  auto cell_of = [&](const glm::dvec3& p) {
+    const glm::dvec3 c = glm::clamp(glm::floor((p - lo) / width), glm::dvec3(0.0), glm::dvec3(dims - 1));
+    return glm::ivec3(c.x == c.x ? c.x : 0.0, c.y == c.y ? c.y : 0.0, c.z == c.z ? c.z : 0.0);
+  };
   auto for_cells = [&](const glm::dvec3& a, const glm::dvec3& b, auto&& visit) {
     const glm::ivec3 ca = cell_of(a), cb = cell_of(b);
     for (int z = ca.z; z <= cb.z; ++z)
