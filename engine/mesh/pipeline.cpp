@@ -1,12 +1,16 @@
 #include "mesh/pipeline.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <numeric>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "fields/volume_grid.h"
 #include "mesh/extract.h"
@@ -270,39 +274,57 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
       rep.volume_one_run_because = meshes.one_run_because;
+      rep.volume_runs = meshes.runs;
       const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.
       auto& out = result.volume;
-      std::vector<uint32_t> renumber(V.points.size(), UINT32_MAX);
-      auto out_index = [&](uint32_t v) {
-        if (renumber[v] == UINT32_MAX) {
-          renumber[v] = uint32_t(out.vertices.size());
-          const glm::dvec3 q = grid.to_physical(V.points[v]);
-          out.vertices.push_back({q.x, q.y, q.z});
-        }
-        return renumber[v];
-      };
       // Tets in no seeded region take the fields' material: TetGen numbers an unseeded region itself (seen in the
       // one-run fallback on the 32^3 shells).
       auto seeded = [&](int region) { return region >= 1 && size_t(region) <= labels.size(); };
       std::vector<uint16_t> fallback;
       if (V.region.size() != V.tets.size() || !std::all_of(V.region.begin(), V.region.end(), seeded))
         fallback = label_tets(F.fields, V);
-      std::vector<std::vector<std::array<uint32_t, 4>>> per_material(labels.size());
-      for (size_t i = 0; i < V.tets.size(); ++i) {
-        const int region = V.region.empty() ? 0 : V.region[i];
-        const uint16_t m = seeded(region) ? uint16_t(region - 1) : fallback[i];
-        out.tets.push_back({out_index(V.tets[i][0]), out_index(V.tets[i][1]), out_index(V.tets[i][2]),
-                            out_index(V.tets[i][3])});
-        out.tet_material.push_back(labels[m]);
-        per_material[m].push_back(V.tets[i]);
-      }
+      // Used vertices (of a tet or an interface triangle) keep their order: the interface vertices first, then the
+      // points the runs added.
+      std::vector<uint8_t> used(V.points.size(), 0);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, V.tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i)
+          for (uint32_t v : V.tets[i]) std::atomic_ref<uint8_t>(used[v]).store(1, std::memory_order_relaxed);
+      });
+      for (const auto& t : I.triangles)  // on tets' faces, unless a run left a part out
+        for (uint32_t v : t) used[v] = 1;
+      std::vector<uint32_t> renumber(V.points.size(), UINT32_MAX);
+      uint32_t kept = 0;
+      for (size_t v = 0; v < V.points.size(); ++v)
+        if (used[v]) renumber[v] = kept++;
+      out.vertices.resize(kept);
+      std::vector<uint16_t> material_of(V.tets.size());
+      out.tets.resize(V.tets.size());
+      out.tet_material.resize(V.tets.size());
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, V.points.size()), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t v = r.begin(); v != r.end(); ++v)
+          if (used[v]) {
+            const glm::dvec3 q = grid.to_physical(V.points[v]);
+            out.vertices[renumber[v]] = {q.x, q.y, q.z};
+          }
+      });
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, V.tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const int region = V.region.empty() ? 0 : V.region[i];
+          const uint16_t m = seeded(region) ? uint16_t(region - 1) : fallback[i];
+          const auto& t = V.tets[i];
+          out.tets[i] = {renumber[t[0]], renumber[t[1]], renumber[t[2]], renumber[t[3]]};
+          out.tet_material[i] = labels[m];
+          material_of[i] = m;
+        }
+      });
       for (const auto& t : I.triangles)  // -Y: the interface triangles are kept as they are
-        out.triangles.push_back({out_index(t[0]), out_index(t[1]), out_index(t[2])});
+        out.triangles.push_back({renumber[t[0]], renumber[t[1]], renumber[t[2]]});
       out.triangle_pair = result.surfaces.triangle_pair;
-      rep.volume = tet_stats(V.points, V.tets);
-      for (size_t m = 0; m < labels.size(); ++m) rep.materials[m].tets = tet_stats(V.points, per_material[m]);
+      const std::vector<TetStats> per_material = tet_stats_by_group(V.points, V.tets, material_of, labels.size());
+      rep.volume = combined(per_material);
+      for (size_t m = 0; m < labels.size(); ++m) rep.materials[m].tets = per_material[m];
     } catch (const std::exception& e) {
       rep.volume_error = e.what();
     }

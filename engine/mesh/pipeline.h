@@ -25,6 +25,7 @@
 #include "io/volume.h"
 #include "mesh/quality.h"
 #include "mesh/smooth.h"
+#include "mesh/volume_mesh.h"
 #include "mesh/tetgen.h"
 #include "particles/population.h"
 
@@ -85,6 +86,7 @@ struct MeshReport {
   SliverSplitReport sliver_split;    // slivers flipped away or refilled around a new vertex (smooth.h split_slivers)
   std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
   std::string volume_one_run_because;  // not empty: why the materials were meshed in one run (volume_mesh.h)
+  std::vector<MaterialRunTiming> volume_runs;  // time of each TetGen run and its sliver passes (volume_mesh.h)
   size_t interfaces_manifold = 0, materials_closed = 0;
   size_t crossing_triangles = 0;  // pairs of interface triangles that cross each other (quality.h; 0 for a valid mesh)
 };

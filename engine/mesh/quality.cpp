@@ -11,6 +11,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include "io/synth_volumes.h"
@@ -25,7 +26,12 @@ double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& 
   return 2 * r_in / r_circ;
 }
 
-std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+namespace {
+
+// Per edge (i, j), in the order (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the other two corners k < l: the cosine of the
+// angle between the outward normals of the faces opposite k and l, clamped to [-1, 1]. The dihedral angle at the
+// edge is pi - acos of it, which grows with it.
+std::array<double, 6> normal_cosines(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
   const glm::dvec3 p[4] = {a, b, c, d};
   // Outward normal of the face opposite corner k.
   auto normal = [&](int k) {
@@ -37,12 +43,28 @@ std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, 
   };
   glm::dvec3 n[4];
   for (int k = 0; k < 4; ++k) n[k] = normal(k);
-  // The dihedral angle at edge (i, j) is between the faces opposite the other two corners k, l: pi - angle(n_k, n_l).
   std::array<double, 6> out;
   int e = 0;
   for (int k = 0; k < 4; ++k)
-    for (int l = k + 1; l < 4; ++l) out[size_t(e++)] = M_PI - std::acos(std::clamp(glm::dot(n[k], n[l]), -1.0, 1.0));
+    for (int l = k + 1; l < 4; ++l) out[size_t(e++)] = std::clamp(glm::dot(n[k], n[l]), -1.0, 1.0);
   return out;
+}
+
+double dihedral_of(double cosine) { return M_PI - std::acos(cosine); }
+
+}  // namespace
+
+std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  // The dihedral angle at edge (i, j) is between the faces opposite the other two corners k, l: pi - angle(n_k, n_l).
+  std::array<double, 6> out = normal_cosines(a, b, c, d);
+  for (double& x : out) x = dihedral_of(x);
+  return out;
+}
+
+std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  const auto x = normal_cosines(a, b, c, d);
+  const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
+  return {dihedral_of(*lo), dihedral_of(*hi)};
 }
 
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
@@ -310,21 +332,75 @@ size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& T) {
   return odd;
 }
 
-TetStats tet_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 4>>& tets) {
-  TetStats s;
-  s.tets = tets.size();
-  if (tets.empty()) return s;
-  s.min_dihedral_deg = 180;
-  for (const auto& t : tets) {
-    for (double a : dihedral_angles(V[t[0]], V[t[1]], V[t[2]], V[t[3]])) {
-      s.min_dihedral_deg = std::min(s.min_dihedral_deg, a * 180 / M_PI);
-      s.max_dihedral_deg = std::max(s.max_dihedral_deg, a * 180 / M_PI);
+std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 4>>& tets,
+                                         const std::vector<uint16_t>& group, size_t groups) {
+  if (group.size() != tets.size()) throw std::invalid_argument("tet_stats_by_group: one group per tet");
+  // Fixed chunks joined in order, so that the mean is the same sum on any thread count.
+  struct Sums {
+    std::vector<TetStats> s;
+  };
+  auto empty = [&] {
+    Sums z;
+    z.s.resize(groups);
+    for (TetStats& x : z.s) x.min_dihedral_deg = 180;
+    return z;
+  };
+  auto join = [](Sums a, const Sums& b) {
+    for (size_t g = 0; g < a.s.size(); ++g) {
+      TetStats &x = a.s[g];
+      const TetStats& y = b.s[g];
+      x.tets += y.tets;
+      x.min_dihedral_deg = std::min(x.min_dihedral_deg, y.min_dihedral_deg);
+      x.max_dihedral_deg = std::max(x.max_dihedral_deg, y.max_dihedral_deg);
+      x.max_radius_edge = std::max(x.max_radius_edge, y.max_radius_edge);
+      x.mean_radius_edge += y.mean_radius_edge;  // the sum until the end
     }
-    const double re = radius_edge_ratio(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
-    s.max_radius_edge = std::max(s.max_radius_edge, re);
-    s.mean_radius_edge += re;
+    return a;
+  };
+  Sums all = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<size_t>(0, tets.size(), 16384), empty(),
+      [&](const tbb::blocked_range<size_t>& r, Sums acc) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          if (group[i] >= groups) throw std::invalid_argument("tet_stats_by_group: group out of range");
+          const auto& t = tets[i];
+          TetStats& x = acc.s[group[i]];
+          const auto range = dihedral_range(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
+          x.min_dihedral_deg = std::min(x.min_dihedral_deg, range[0] * 180 / M_PI);
+          x.max_dihedral_deg = std::max(x.max_dihedral_deg, range[1] * 180 / M_PI);
+          const double re = radius_edge_ratio(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
+          x.max_radius_edge = std::max(x.max_radius_edge, re);
+          x.mean_radius_edge += re;
+          ++x.tets;
+        }
+        return acc;
+      },
+      join);
+  for (TetStats& x : all.s) {
+    if (x.tets == 0) {
+      x = TetStats{};
+      continue;
+    }
+    x.mean_radius_edge /= double(x.tets);
   }
-  s.mean_radius_edge /= double(tets.size());
+  return all.s;
+}
+
+TetStats tet_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 4>>& tets) {
+  return tet_stats_by_group(V, tets, std::vector<uint16_t>(tets.size(), 0), 1)[0];
+}
+
+TetStats combined(const std::vector<TetStats>& parts) {
+  TetStats s;
+  double sum = 0;
+  for (const TetStats& x : parts) {
+    if (x.tets == 0) continue;
+    s.min_dihedral_deg = s.tets == 0 ? x.min_dihedral_deg : std::min(s.min_dihedral_deg, x.min_dihedral_deg);
+    s.max_dihedral_deg = std::max(s.max_dihedral_deg, x.max_dihedral_deg);
+    s.max_radius_edge = std::max(s.max_radius_edge, x.max_radius_edge);
+    sum += x.mean_radius_edge * double(x.tets);
+    s.tets += x.tets;
+  }
+  if (s.tets > 0) s.mean_radius_edge = sum / double(s.tets);
   return s;
 }
 

@@ -20,6 +20,8 @@ namespace cpmesh::mesh {
 double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
 // The six dihedral angles of a tet, radians.
 std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+// The smallest and largest of them (the same values), with two arc cosines instead of six.
+std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 
 struct TriangleStats {
@@ -80,5 +82,11 @@ struct TetStats {
   double min_dihedral_deg = 0, max_dihedral_deg = 0, max_radius_edge = 0, mean_radius_edge = 0;
 };
 TetStats tet_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets);
+// The same per group of tets (group[i] < groups: tet i's group), in one parallel pass; a group with no tet gets
+// TetStats{}. `combined` joins groups into the stats of all their tets.
+std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& vertices,
+                                         const std::vector<std::array<uint32_t, 4>>& tets,
+                                         const std::vector<uint16_t>& group, size_t groups);
+TetStats combined(const std::vector<TetStats>& parts);
 
 }  // namespace cpmesh::mesh

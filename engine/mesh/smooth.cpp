@@ -3,15 +3,16 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <set>
 #include <unordered_map>
-#include <unordered_set>
+#include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
-#include "mesh/face_key.h"
 #include "mesh/quality.h"
 #include "ref/cp_lookup.h"
 
@@ -211,6 +212,61 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
   return report;
 }
 
+namespace {
+
+// The elements (tets or triangles) around each vertex, in ascending element order: a CSR table built in parallel,
+// and a copy per vertex whose list changed since (split_slivers replaces tets; new vertices get lists there).
+template <size_t N>
+class ElementsAround {
+ public:
+  ElementsAround(size_t vertices, const std::vector<std::array<uint32_t, N>>& elements) : begin_(vertices + 1, 0) {
+    std::vector<std::atomic<uint32_t>> count(vertices);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, elements.size()), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t e = r.begin(); e != r.end(); ++e)
+        for (uint32_t v : elements[e]) count[v].fetch_add(1, std::memory_order_relaxed);
+    });
+    for (size_t v = 0; v < vertices; ++v) begin_[v + 1] = begin_[v] + count[v].load(std::memory_order_relaxed);
+    for (size_t v = 0; v < vertices; ++v) count[v].store(begin_[v], std::memory_order_relaxed);
+    list_.resize(begin_[vertices]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, elements.size()), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t e = r.begin(); e != r.end(); ++e)
+        for (uint32_t v : elements[e]) list_[count[v].fetch_add(1, std::memory_order_relaxed)] = uint32_t(e);
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) std::sort(list_.begin() + begin_[v], list_.begin() + begin_[v + 1]);
+    });
+  }
+  std::span<const uint32_t> operator[](uint32_t v) const {
+    if (!changed_.empty())
+      if (const auto it = changed_.find(v); it != changed_.end()) return it->second;
+    if (size_t(v) + 1 >= begin_.size()) return {};
+    return {list_.data() + begin_[v], list_.data() + begin_[v + 1]};
+  }
+  void add(uint32_t v, uint32_t e) { own(v).push_back(e); }
+  void remove(uint32_t v, uint32_t e) {
+    auto& l = own(v);
+    l.erase(std::remove(l.begin(), l.end(), e), l.end());
+  }
+
+ private:
+  std::vector<uint32_t>& own(uint32_t v) {
+    auto [it, fresh] = changed_.try_emplace(v);
+    if (fresh && size_t(v) + 1 < begin_.size()) it->second.assign(list_.begin() + begin_[v], list_.begin() + begin_[v + 1]);
+    return it->second;
+  }
+  std::vector<size_t> begin_;
+  std::vector<uint32_t> list_;
+  std::unordered_map<uint32_t, std::vector<uint32_t>> changed_;
+};
+
+// Whether tet (or triangle) e has vertex v.
+template <size_t N>
+bool has(const std::array<uint32_t, N>& e, uint32_t v) {
+  return std::find(e.begin(), e.end(), v) != e.end();
+}
+
+}  // namespace
+
 TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
                               size_t fixed, double target_deg, double max_radius_edge, int passes) {
   TetImproveReport report;
@@ -218,19 +274,20 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
     return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
   };
-  auto min_angle = [&](const std::array<uint32_t, 4>& t) {
-    const auto a = dihedral_angles(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
-    return *std::min_element(a.begin(), a.end());
-  };
-  std::vector<std::vector<uint32_t>> around(P.size());
+  auto min_angle = [&](const std::array<uint32_t, 4>& t) { return dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]])[0]; };
+  // Every tet's smallest dihedral angle, kept current as vertices move (one parallel pass, then only the tets of a
+  // moved vertex).
+  std::vector<double> angle(tets.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) angle[t] = min_angle(tets[t]);
+  });
+  auto worst_angle = [&] { return angle.empty() ? M_PI : *std::min_element(angle.begin(), angle.end()); };
+  const ElementsAround<4> around(P.size(), tets);
   std::vector<int8_t> sign(tets.size());
-  double worst = M_PI;
-  for (uint32_t t = 0; t < tets.size(); ++t) {
-    for (uint32_t v : tets[t]) around[v].push_back(t);
-    sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
-    worst = std::min(worst, min_angle(tets[t]));
-  }
-  report.min_dihedral_before = report.min_dihedral_after = worst * 180 / M_PI;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
+  });
+  report.min_dihedral_before = report.min_dihedral_after = worst_angle() * 180 / M_PI;
   // The smallest dihedral angle of v's tets with v at its current position, or -1 if one of them is inverted or
   // over the radius-edge bound `limit`.
   auto quality_at = [&](uint32_t v, double limit) {
@@ -255,8 +312,20 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   std::normal_distribution<double> n01;
   for (int pass = 0; pass < passes; ++pass) {
     size_t moves = 0;
-    for (uint32_t t = 0; t < tets.size(); ++t) {
-      if (min_angle(tets[t]) >= target) continue;
+    // The tets in index order, each tested when reached: those below the target when the pass starts, and those of
+    // a vertex moved earlier in the pass (only they can have changed). Serial, so that the moves are the same on
+    // any thread count.
+    std::vector<uint32_t> queue;
+    for (uint32_t t = 0; t < tets.size(); ++t)
+      if (angle[t] < target) queue.push_back(t);  // ascending: already a heap
+    uint32_t last = UINT32_MAX;
+    while (!queue.empty()) {
+      std::pop_heap(queue.begin(), queue.end(), std::greater<>());
+      const uint32_t t = queue.back();
+      queue.pop_back();
+      if (t == last) continue;
+      last = t;
+      if (angle[t] >= target) continue;
       for (uint32_t v : tets[t]) {
         if (v < fixed) continue;
         const glm::dvec3 start = P[v];
@@ -284,15 +353,21 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
           for (int k = 0; k < 8; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
         P[v] = best_at;
-        moves += best_at != start;
+        if (best_at == start) continue;
+        ++moves;
+        for (uint32_t u : around[v]) {
+          angle[u] = min_angle(tets[u]);
+          if (u > t) {
+            queue.push_back(u);
+            std::push_heap(queue.begin(), queue.end(), std::greater<>());
+          }
+        }
       }
     }
     report.moves += moves;
     if (moves == 0) break;
   }
-  worst = M_PI;
-  for (const auto& t : tets) worst = std::min(worst, min_angle(t));
-  report.min_dihedral_after = worst * 180 / M_PI;
+  report.min_dihedral_after = worst_angle() * 180 / M_PI;
   return report;
 }
 
@@ -319,39 +394,36 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
     return glm::dot(b - a, glm::cross(c - a, d - a));
   };
   auto min_angle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-    const auto x = dihedral_angles(a, b, c, d);
-    return *std::min_element(x.begin(), x.end());
+    return dihedral_range(a, b, c, d)[0];
   };
   auto tet_min_angle = [&](const std::array<uint32_t, 4>& t) { return min_angle(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
+  std::vector<uint8_t> below(tets.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) below[t] = tet_min_angle(tets[t]) < target;
+  });
   std::vector<uint32_t> bad;
   for (uint32_t t = 0; t < tets.size(); ++t)
-    if (tet_min_angle(tets[t]) < target) bad.push_back(t);
-  if (bad.empty()) return report;  // nothing to do: no face maps
-  std::unordered_set<FaceKey, FaceKeyHash> kept_faces;
-  for (const auto& f : kept) kept_faces.insert(FaceKey(f));
-  // Face -> the (at most two) tets on it.
-  std::unordered_map<FaceKey, std::array<uint32_t, 2>, FaceKeyHash> faces;
+    if (below[t]) bad.push_back(t);
+  if (bad.empty()) return report;  // nothing to do: no incidence tables
+  // Neighbours across faces and kept faces are found from the elements around a face's first vertex.
+  ElementsAround<4> around(P.size(), tets);
+  const ElementsAround<3> kept_around(P.size(), kept);
+  auto is_kept = [&](const std::array<uint32_t, 3>& f) {
+    for (uint32_t k : kept_around[f[0]])
+      if (has(kept[k], f[1]) && has(kept[k], f[2])) return true;
+    return false;
+  };
   auto link = [&](uint32_t t) {
-    for (int i = 0; i < 4; ++i) {
-      auto [it, fresh] = faces.try_emplace(FaceKey(face_of(tets[t], i)), std::array<uint32_t, 2>{t, dead});
-      if (!fresh) it->second[1] = t;
-    }
+    for (uint32_t v : tets[t]) around.add(v, t);
   };
   auto unlink = [&](uint32_t t) {
-    for (int i = 0; i < 4; ++i) {
-      auto it = faces.find(FaceKey(face_of(tets[t], i)));
-      if (it == faces.end()) continue;
-      auto& pair = it->second;
-      if (pair[0] == t) pair[0] = pair[1];
-      pair[1] = dead;
-      if (pair[0] == dead) faces.erase(it);
-    }
+    for (uint32_t v : tets[t]) around.remove(v, t);
   };
-  for (uint32_t t = 0; t < tets.size(); ++t) link(t);
   auto neighbour = [&](uint32_t t, int i) {
-    const auto it = faces.find(FaceKey(face_of(tets[t], i)));
-    if (it == faces.end()) return dead;
-    return it->second[0] == t ? it->second[1] : it->second[0];
+    const auto f = face_of(tets[t], i);
+    for (uint32_t u : around[f[0]])
+      if (u != t && has(tets[u], f[1]) && has(tets[u], f[2])) return u;
+    return dead;
   };
 
   const bool had_regions = !region.empty();
@@ -404,7 +476,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
           const auto& q = tets[t];
           int opposite = 0;
           while (opposite < 4 && q[size_t(opposite)] != prev) ++opposite;
-          if (opposite == 4 || kept_faces.count(FaceKey(face_of(q, opposite)))) break;
+          if (opposite == 4 || is_kept(face_of(q, opposite))) break;
           const uint32_t u = neighbour(t, opposite);
           if (u == dead) break;
           if (u == start) {
@@ -483,7 +555,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
           for (int i = 0; i < 4; ++i) {
             const uint32_t u = neighbour(t, i);
             if (u == dead || in_cavity.count(u) || region[u] != region[start]) continue;
-            if (kept_faces.count(FaceKey(face_of(tets[t], i)))) continue;
+            if (is_kept(face_of(tets[t], i))) continue;
             cavity.push_back(u);
             in_cavity.insert(u);
           }

@@ -1,6 +1,7 @@
 #include "mesh/volume_mesh.h"
 
 #include <algorithm>
+#include <chrono>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -21,12 +22,29 @@ struct Job {
   std::vector<glm::dvec3> holes;
 };
 
-// One material, in this process (the child): TetGen, then the sliver passes. Returns the added points only.
-MaterialMeshes mesh_one(const std::vector<glm::dvec3>& points, const Job& job, const QualityOptions& options) {
+// One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
+// back), then the sliver passes of smooth.h here, where they may use the thread pool (a forked child of a
+// multithreaded process must not).
+MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, const QualityOptions& options,
+                       const std::string& what) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  const std::string bytes = run_in_child(what, [&] {
+    Tets V = constrained_quality_in_this_process(points, job.triangles, {}, job.regions, options, job.holes);
+    V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));
+    V.faces.clear();  // the interface triangles, unchanged (-Y)
+    V.face_marker.clear();
+    ByteWriter w;
+    put_tets(w, V);
+    return w.take();
+  });
   MaterialMeshes r;
   Tets& V = r.tets;
-  V = constrained_quality_in_this_process(points, job.triangles, {}, job.regions, options, job.holes);
+  ByteReader in(bytes);
+  if (!get_tets(in, V) || !in.done()) throw std::runtime_error(what + ": truncated result from the child process");
+  const auto t1 = clock::now();
   // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
+  V.points.insert(V.points.begin(), points.begin(), points.end());
   r.improvement = improve_tets(V.points, V.tets, points.size(), options.min_dihedral, options.max_radius_edge);
   // What moving vertices left: slivers among kept surface vertices. Refill them around a new vertex, then let the
   // vertex pass place the new vertices among their neighbours.
@@ -36,27 +54,9 @@ MaterialMeshes mesh_one(const std::vector<glm::dvec3>& points, const Job& job, c
     r.improvement.min_dihedral_after = again.min_dihedral_after;
     r.improvement.moves += again.moves;
   }
+  r.runs = {{job.material, std::chrono::duration<double>(t1 - t0).count(),
+             std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size()}};
   V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));
-  V.faces.clear();
-  V.face_marker.clear();
-  return r;
-}
-
-// mesh_one in a child process.
-MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, const QualityOptions& options,
-                       const std::string& what) {
-  const std::string bytes = run_in_child(what, [&] {
-    const MaterialMeshes r = mesh_one(points, job, options);
-    ByteWriter w;
-    put_tets(w, r.tets);
-    w.put_value(r.improvement);
-    w.put_value(r.sliver_split);
-    return w.take();
-  });
-  MaterialMeshes r;
-  ByteReader in(bytes);
-  if (!get_tets(in, r.tets) || !in.get_value(r.improvement) || !in.get_value(r.sliver_split) || !in.done())
-    throw std::runtime_error(what + ": truncated result from the child process");
   return r;
 }
 
@@ -115,7 +115,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     // A material whose boundary is not closed (a thin layer's interface with a hole) leaks into the outside when
     // meshed alone, and TetGen drops its vertices; with every interface present the leak only reaches a neighbour's
     // region. So a failed material sends the whole mesh to one run over all interfaces, as one job.
-    Job all{0, triangles, seeds, {}};
+    Job all{UINT16_MAX, triangles, seeds, {}};
     MaterialMeshes r;
     try {
       r = run_job(points, all, options, "volume mesh of all materials in one run");
@@ -139,6 +139,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       T.tets.push_back(tet);
     }
     T.region.insert(T.region.end(), r.tets.region.begin(), r.tets.region.end());
+    out.runs.insert(out.runs.end(), r.runs.begin(), r.runs.end());
     if (r.tets.region.size() != r.tets.tets.size()) T.region.resize(T.tets.size(), 0);
     out.improvement.min_dihedral_before = first ? r.improvement.min_dihedral_before
                                                 : std::min(out.improvement.min_dihedral_before, r.improvement.min_dihedral_before);

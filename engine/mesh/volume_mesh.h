@@ -6,8 +6,10 @@
 // by other materials are carved out, not meshed twice), then the sliver passes of smooth.h (improve_tets,
 // split_slivers) on its tets. -Y puts no point on an input triangle, so two materials meet on exactly the interface
 // triangles, as faces of tets on both sides, and the runs are independent: they go in parallel (the thread pool's
-// limit, largest boundary first), each in a child process because a failing TetGen can kill its process
-// (child_process.h). The result does not depend on the thread count: the runs are merged in material order.
+// limit, largest boundary first), each TetGen run in a child process because a failing TetGen can kill its process
+// (child_process.h), its sliver passes back in this process (they use the thread pool, which a forked child of a
+// multithreaded process must not). The result does not depend on the thread count: the runs are merged in
+// material order.
 // A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //
@@ -29,8 +31,16 @@
 
 namespace cpmesh::mesh {
 
+// Where one run's time went (seconds): TetGen, then the sliver passes (improve_tets, split_slivers).
+struct MaterialRunTiming {
+  uint16_t material = 0;  // index into labels; UINT16_MAX: the one run over all materials
+  double tetgen = 0, slivers = 0;
+  size_t tets = 0, added_points = 0;
+};
+
 struct MaterialMeshes {
   Tets tets;
+  std::vector<MaterialRunTiming> runs;  // one per run, in material order
   TetImproveReport improvement;  // smallest dihedral angles over all materials, moves summed
   SliverSplitReport sliver_split;
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run

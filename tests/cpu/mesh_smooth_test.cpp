@@ -546,3 +546,162 @@ TEST_CASE("mesh_materials: three boxes, one holding two that touch, meshed per m
   }
   CHECK(thrown);
 }
+
+namespace {
+
+// improve_tets as first written: every pass tests every tet in index order (against its angles at that moment)
+// and recomputes the smallest angle of all tets from scratch. The library's version tests only the tets below the
+// target and those of moved vertices, and keeps the angles current; the moves must be the same.
+mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
+                                          size_t fixed, double target_deg, double max_radius_edge, int passes) {
+  mesh::TetImproveReport report;
+  const double target = target_deg * M_PI / 180;
+  auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
+    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
+  };
+  auto min_angle = [&](const std::array<uint32_t, 4>& t) {
+    const auto a = mesh::dihedral_angles(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+    return *std::min_element(a.begin(), a.end());
+  };
+  auto worst = [&] {
+    double w = M_PI;
+    for (const auto& t : tets) w = std::min(w, min_angle(t));
+    return w * 180 / M_PI;
+  };
+  std::vector<std::vector<uint32_t>> around(P.size());
+  std::vector<int8_t> sign(tets.size());
+  for (uint32_t t = 0; t < tets.size(); ++t) {
+    for (uint32_t v : tets[t]) around[v].push_back(t);
+    sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
+  }
+  report.min_dihedral_before = worst();
+  auto quality_at = [&](uint32_t v, double limit) {
+    double q = M_PI;
+    for (uint32_t t : around[v]) {
+      const auto& k = tets[t];
+      if (signed_volume(k) * sign[t] <= 0 || mesh::radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit)
+        return -1.0;
+      q = std::min(q, min_angle(k));
+    }
+    return q;
+  };
+  std::mt19937 rng(12345);
+  std::normal_distribution<double> n01;
+  for (int pass = 0; pass < passes; ++pass) {
+    size_t moves = 0;
+    for (uint32_t t = 0; t < tets.size(); ++t) {
+      if (min_angle(tets[t]) >= target) continue;
+      for (uint32_t v : tets[t]) {
+        if (v < fixed) continue;
+        const glm::dvec3 start = P[v];
+        double ratio = 0;
+        for (uint32_t u : around[v])
+          ratio = std::max(ratio, mesh::radius_edge_ratio(P[tets[u][0]], P[tets[u][1]], P[tets[u][2]], P[tets[u][3]]));
+        const double limit = std::max(max_radius_edge, ratio);
+        double best = quality_at(v, limit);
+        glm::dvec3 best_at = start, centroid(0.0);
+        double edge = 0;
+        size_t count = 0;
+        for (uint32_t u : around[v])
+          for (uint32_t w : tets[u])
+            if (w != v) {
+              centroid += P[w];
+              edge += glm::length(P[w] - start);
+              ++count;
+            }
+        if (count == 0) continue;
+        centroid /= double(count);
+        edge /= double(count);
+        auto consider = [&](const glm::dvec3& at) {
+          P[v] = at;
+          const double q = quality_at(v, limit);
+          if (q > best) best = q, best_at = at;
+        };
+        consider(centroid);
+        for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
+          for (int k = 0; k < 8; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
+        P[v] = best_at;
+        moves += best_at != start;
+      }
+    }
+    report.moves += moves;
+    if (moves == 0) break;
+  }
+  report.min_dihedral_after = worst();
+  return report;
+}
+
+}  // namespace
+
+TEST_CASE("improve_tets: the same moves as testing every tet in every pass, on any thread count") {
+  // The Delaunay tets of jittered grid points: many slivers, and vertices in several of them (a move changes which
+  // tets come later in the pass below the target).
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  std::vector<glm::dvec3> P;
+  for (int z = 0; z < 9; ++z)
+    for (int y = 0; y < 9; ++y)
+      for (int x = 0; x < 9; ++x) P.push_back(glm::dvec3(x + jitter(rng), y + jitter(rng), z + jitter(rng)));
+  const auto T = mesh::delaunay(P);
+  const size_t fixed = 100;  // some vertices may not move, as the surface vertices in the volume mesh
+  for (double target : {12.0, 25.0}) {
+    auto plain = P;
+    const auto expected = improve_tets_plain(plain, T.tets, fixed, target, 1.5, 4);
+    REQUIRE(expected.moves > 20);
+    for (int threads : {1, 4}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+      auto moved = P;
+      const auto r = mesh::improve_tets(moved, T.tets, fixed, target, 1.5, 4);
+      CHECK(r.moves == expected.moves);
+      CHECK(r.min_dihedral_before == expected.min_dihedral_before);
+      CHECK(r.min_dihedral_after == expected.min_dihedral_after);
+      CHECK(moved == plain);
+    }
+  }
+}
+
+TEST_CASE("dihedral_range and tet_stats_by_group agree with the angles of each tet") {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<glm::dvec3> P;
+  for (int i = 0; i < 400; ++i) P.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
+  const auto T = mesh::delaunay(P);
+  std::vector<uint16_t> group(T.tets.size());
+  std::vector<std::vector<std::array<uint32_t, 4>>> by(3);
+  for (size_t i = 0; i < T.tets.size(); ++i) {
+    const auto& t = T.tets[i];
+    const auto a = mesh::dihedral_angles(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+    const auto r = mesh::dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+    CHECK(r[0] == *std::min_element(a.begin(), a.end()));
+    CHECK(r[1] == *std::max_element(a.begin(), a.end()));
+    group[i] = uint16_t(i % 2);  // group 2 stays empty
+    by[group[i]].push_back(t);
+  }
+  const auto stats = mesh::tet_stats_by_group(P, T.tets, group, 3);
+  REQUIRE(stats.size() == 3);
+  for (size_t g = 0; g < 2; ++g) {
+    // The plain definition: every angle and ratio of the group's tets.
+    double lo = 180, hi = 0, re_max = 0, re_sum = 0;
+    for (const auto& t : by[g]) {
+      for (double a : mesh::dihedral_angles(P[t[0]], P[t[1]], P[t[2]], P[t[3]])) {
+        lo = std::min(lo, a * 180 / M_PI);
+        hi = std::max(hi, a * 180 / M_PI);
+      }
+      const double re = mesh::radius_edge_ratio(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+      re_max = std::max(re_max, re);
+      re_sum += re;
+    }
+    CHECK(stats[g].tets == by[g].size());
+    CHECK(stats[g].min_dihedral_deg == lo);
+    CHECK(stats[g].max_dihedral_deg == hi);
+    CHECK(stats[g].max_radius_edge == re_max);
+    CHECK(stats[g].mean_radius_edge == doctest::Approx(re_sum / double(by[g].size())).epsilon(1e-12));
+  }
+  CHECK(stats[2].tets == 0);
+  const auto all = mesh::combined(stats), whole = mesh::tet_stats(P, T.tets);
+  CHECK(all.tets == T.tets.size());
+  CHECK(all.min_dihedral_deg == whole.min_dihedral_deg);
+  CHECK(all.max_dihedral_deg == whole.max_dihedral_deg);
+  CHECK(all.max_radius_edge == whole.max_radius_edge);
+  CHECK(all.mean_radius_edge == doctest::Approx(whole.mean_radius_edge).epsilon(1e-12));
+}

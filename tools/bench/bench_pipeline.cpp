@@ -146,6 +146,11 @@ int main(int argc, char** argv) {
            {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces},
             {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
+      for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel
+        j["volume_runs"].push_back({{"material", run.material < rep.materials.size()
+                                                     ? nlohmann::json(rep.materials[run.material].label)
+                                                     : nlohmann::json("all")},
+                                    {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
       std::cout << j.dump() << '\n';
 
       // The peer, in a child process (its own memory, its own failures).

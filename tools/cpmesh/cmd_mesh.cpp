@@ -203,6 +203,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["sliver_flips"] = rep.sliver_split.flips;
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
+            j["volume_mesh"]["runs"] = nlohmann::json::array();
+            for (const auto& run : rep.volume_runs)
+              j["volume_mesh"]["runs"].push_back(
+                  {{"label", run.material < rep.materials.size() ? nlohmann::json(rep.materials[run.material].label)
+                                                                 : nlohmann::json("all")},
+                   {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets},
+                   {"added_points", run.added_points}});
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
             io::write_atomically(dir + "report.json", [&](std::ostream& out) { out << j.dump(2) << '\n'; });
 
@@ -234,13 +241,20 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
                         rep.interfaces.size(), rep.materials_closed, rep.materials.size(), rep.crossing_triangles);
             if (!o->mesh.only_surfaces) {
-              if (rep.volume_error.empty())
+              if (rep.volume_error.empty()) {
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
                             "moves, %zu flips, %zu splits), radius-edge max %.2f\n",
                             rep.volume.tets, rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
                             rep.sliver_split.flips, rep.sliver_split.inserted, rep.volume.max_radius_edge);
-              else
+                for (const auto& run : rep.volume_runs) {
+                  const std::string who = run.material < rep.materials.size()
+                                              ? "material " + std::to_string(rep.materials[run.material].label)
+                                              : std::string("all materials");
+                  std::printf("    %-16s %10zu tets  TetGen %7.2f s, sliver passes %6.2f s\n", who.c_str(), run.tets,
+                              run.tetgen, run.slivers);
+                }
+              } else
                 std::printf("  volume mesh not made: %s\n", rep.volume_error.c_str());
             }
             std::printf("  wrote %s\n", o->out.c_str());
