@@ -56,6 +56,13 @@ int main(int argc, char** argv) {
   app.add_option("--min-size", min_size,
                  "Smallest h, physical units (0: a quarter voxel; thin layers ask for it, so it sets their cost)")
       ->capture_default_str();
+  int subcells = mesh::MeshOptions{}.fields.embedding.sub;
+  double band = mesh::MeshOptions{}.fields.indicator.band;
+  app.add_option("--subcells", subcells, "Closest point embedding: fine points per voxel and axis")
+      ->check(CLI::Range(1, 4))
+      ->capture_default_str();
+  app.add_option("--band", band, "Narrow band of the indicator fields, voxels (fewer subcells need a deeper band)")
+      ->capture_default_str();
   size_t max_particles = mesh::MeshOptions{}.max_particles;
   app.add_option("--max-particles", max_particles,
                  "A volume whose seeding makes more particles stops there and gets a row saying so (0: no limit); "
@@ -87,6 +94,8 @@ int main(int argc, char** argv) {
       options.only_surfaces = only_surfaces;
       options.fields.sizing.h_max = max_size;
       options.fields.sizing.h_min = min_size;
+      options.fields.embedding.sub = subcells;
+      options.fields.indicator.band = band;
       options.max_particles = max_particles;
       options.population.seed = seed;
       const auto t0 = std::chrono::steady_clock::now();
@@ -143,7 +152,8 @@ int main(int argc, char** argv) {
           {"crossing_triangles", rep.crossing_triangles},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
           {"settings",
-           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces},
+           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"subcells", subcells},
+            {"band", band},
             {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel
