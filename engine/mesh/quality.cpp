@@ -15,6 +15,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "io/synth_volumes.h"
+#include "mesh/grouped.h"
 
 namespace cpmesh::mesh {
 
@@ -277,25 +278,14 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
       for (int y = ca.y; y <= cb.y; ++y)
         for (int x = ca.x; x <= cb.x; ++x) visit((size_t(z) * size_t(dims.y) + size_t(y)) * size_t(dims.x) + size_t(x));
   };
-  std::vector<std::atomic<uint32_t>> count(cells + 1);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t t = r.begin(); t < r.end(); ++t) {
-      glm::dvec3 a, b;
-      box(T[t], a, b);
-      for_cells(a, b, [&](size_t c) { count[c + 1].fetch_add(1, std::memory_order_relaxed); });
-    }
-  });
-  std::vector<uint32_t> start(cells + 1, 0);
-  for (size_t c = 0; c < cells; ++c) start[c + 1] = start[c] + count[c + 1].load(std::memory_order_relaxed);
-  for (size_t c = 0; c < cells; ++c) count[c].store(start[c], std::memory_order_relaxed);
-  std::vector<uint32_t> in_cell(start[cells]);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t t = r.begin(); t < r.end(); ++t) {
-      glm::dvec3 a, b;
-      box(T[t], a, b);
-      for_cells(a, b, [&](size_t c) { in_cell[count[c].fetch_add(1, std::memory_order_relaxed)] = t; });
-    }
-  });
+  const Grouped in_cell = group_by_key(
+      cells, nt,
+      [&](size_t t, auto&& add) {
+        glm::dvec3 a, b;
+        box(T[t], a, b);
+        for_cells(a, b, add);
+      },
+      false);
   tbb::enumerable_thread_specific<std::vector<std::array<uint32_t, 2>>> found;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 256), [&](const tbb::blocked_range<uint32_t>& r) {
     auto& mine = found.local();
@@ -306,8 +296,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
       box(T[t], a, b);
       seen.clear();
       for_cells(a, b, [&](size_t c) {
-        for (uint32_t k = start[c]; k < start[c + 1]; ++k) {
-          const uint32_t u = in_cell[k];
+        for (uint32_t u : in_cell[c]) {
           if (u == t || (u < t && (!only || (*only)[u]))) continue;  // each pair once
           glm::dvec3 ulo, uhi;
           box(T[u], ulo, uhi);
