@@ -281,6 +281,15 @@ Context::Context(const ContextOptions& options) : validation_(std::make_unique<V
 Context::~Context() {
   if (*device_) device_.waitIdle();
   pool_.clear();
+  pipelines_.clear();
+}
+
+std::shared_ptr<void> Context::cached_pipeline(const void* code, const std::vector<uint32_t>& spec_constants,
+                                               const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard lock(pipeline_mutex_);
+  auto& slot = pipelines_[{code, spec_constants}];
+  if (!slot) slot = make();
+  return slot;
 }
 
 uint64_t Context::validation_error_count() const {

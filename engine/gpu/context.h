@@ -6,6 +6,7 @@
 // choice with an index from `cpmesh devices` or a case-insensitive substring of the device name.
 // Not thread-safe: one thread records and submits.
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -125,6 +126,13 @@ class Context {
   bool unified_memory() const { return unified_memory_; }
   bool force_staging() const { return force_staging_; }
 
+  // Pipelines by shader code and specialization constants (gpu/kernel.h): a kernel made again (each add/delete round
+  // makes a new particle system of some 20 kernels) shares the pipeline made first instead of compiling it again,
+  // which on lavapipe costs LLVM time at creation and at the first dispatch (0.1-0.2 s a particle system). The
+  // pipeline is opaque here; `make` builds it when missing. Kept until the context goes.
+  std::shared_ptr<void> cached_pipeline(const void* code, const std::vector<uint32_t>& spec_constants,
+                                        const std::function<std::shared_ptr<void>()>& make);
+
   const vk::raii::Device& device() const { return device_; }
   const vk::raii::Queue& queue() const { return queue_; }
   const vk::raii::CommandPool& command_pool() const { return command_pool_; }
@@ -159,6 +167,8 @@ class Context {
   std::mutex pool_mutex_;
   std::vector<PooledBuffer> pool_;  // oldest first
   uint64_t pooled_bytes_ = 0;
+  std::mutex pipeline_mutex_;
+  std::map<std::pair<const void*, std::vector<uint32_t>>, std::shared_ptr<void>> pipelines_;
 };
 
 }  // namespace cpmesh::gpu

@@ -3,7 +3,8 @@
 // and the workgroup size come from the SPIR-V itself (gpu/reflect.h), so adding a kernel takes a registration in
 // shaders/CMakeLists.txt, a push-constant struct and one line here:
 //     gpu::Kernel morton(ctx, shaders::morton_codes);
-// Specialization constants (constant_id 0, 1, ...) are given as 32-bit values in order.
+// Specialization constants (constant_id 0, 1, ...) are given as 32-bit values in order. Kernels of the same shader and
+// constants share one pipeline, made once per context (Context::cached_pipeline).
 #include <memory>
 #include <string>
 #include <vector>

@@ -122,6 +122,25 @@ TEST_CASE_FIXTURE(GpuFixture, "dispatches are checked against the shader's inter
   CHECK_THROWS_WITH_AS(seq.barrier(), doctest::Contains("after it was submitted"), gpu::Error);
 }
 
+TEST_CASE_FIXTURE(GpuFixture, "a kernel made again shares its pipeline; other specialization constants get their own") {
+  gpu::Kernel a(ctx, shaders::scan_blocks, {0}), b(ctx, shaders::scan_blocks, {0}), flags(ctx, shaders::scan_blocks, {1});
+  gpu::Kernel other(ctx, shaders::scan_add);
+  CHECK(a.pipeline() == b.pipeline());
+  CHECK(a.pipeline() != flags.pipeline());
+  CHECK(a.pipeline() != other.pipeline());
+  CHECK(flags.name() == "scan_blocks");
+  // The shared pipeline computes as the first did: the flag variant counts non-zero values, the other sums them.
+  const std::vector<uint32_t> values = {3, 0, 5, 1};
+  gpu::Buffer<uint32_t> in(ctx, values, "in"), sums(ctx, 4, "sums"), counted(ctx, 4, "counted");
+  gpu::Scan scan(ctx);
+  gpu::Sequence seq(ctx);
+  scan.record(seq, in, sums, 4);
+  scan.record(seq, in, counted, 4, true);
+  seq.submit_and_wait();
+  CHECK(sums.download() == std::vector<uint32_t>{0, 3, 3, 8});
+  CHECK(counted.download() == std::vector<uint32_t>{0, 1, 1, 2});
+}
+
 TEST_CASE_FIXTURE(GpuFixture, "a sequence keeps its buffers alive and can be submitted again") {
   gpu::Kernel add(ctx, shaders::scan_add);
   gpu::Buffer<uint32_t> data(ctx, std::vector<uint32_t>(3000, 1), "data");
