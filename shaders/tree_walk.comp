@@ -11,14 +11,19 @@
 //           (xyz, w = h); 4 features uint[n]; 5 feature_masks uvec2[]; 6 result vec4[n] (gradient of E_i wrt p_i in
 //           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out);
 //           8 visits uint[n] (nodes visited).
-// Compiled twice: tree_walk (exact; theta unused) and tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
-// on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%.
-// Push: walkers (<= n), theta. Dispatch: walkers threads in Morton order (thread k handles particle order[k]), 64 per
-// workgroup.
+// Compiled three times: tree_walk (exact; theta unused), tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
+// on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%; and
+// tree_walk_lists (-DNEIGHBOUR_LIST, octree::TreeWalk::record_lists): instead of the energy, each particle's Verlet
+// neighbour list, the particles j with (j's feature bounds i's) and |p_i - p_j| < SUPPORT min(h_i, h_j) (1 + skin)
+// (the pairs' support widened by the skin; the walk prunes by SUPPORT h_i (1 + skin)), in walk order, at most `capacity` stored from lists[i * capacity]; then binding 9 is the lists, 10 their full lengths
+// (bit 31: budget), and 12 a uint that gets the longest length (atomicMax), so the caller can grow the capacity.
+// Push: walkers (<= n), theta, skin, capacity. Dispatch: walkers threads in Morton order (thread k handles particle
+// order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "pair_energy.glsl"
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
@@ -30,13 +35,16 @@ layout(std430, binding = 5) readonly buffer Order { uint order[]; };
 layout(std430, binding = 6) readonly buffer Particles { vec4 particles[]; };
 layout(std430, binding = 7) readonly buffer Features { uint features[]; };
 layout(std430, binding = 8) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
+#ifdef NEIGHBOUR_LIST
+layout(std430, binding = 9) writeonly buffer Lists { uint lists[]; };
+layout(std430, binding = 12) buffer Longest { uint longest[]; };
+#else
 layout(std430, binding = 9) writeonly buffer Result { vec4 result[]; };
+#endif
 layout(std430, binding = 10) writeonly buffer Counts { uint counts[]; };
 layout(std430, binding = 11) writeonly buffer Visits { uint visits[]; };
-layout(push_constant) uniform Push { uint walkers; float theta; } pc;
+layout(push_constant) uniform Push { uint walkers; float theta; float skin; uint capacity; } pc;
 
-const float PI = 3.14159265358979;
-const float SUPPORT = 1.7320508075688772;  // 2 cos(pi/6)
 const uint WORK_BUDGET = 60000;
 const uint STACK = 160;                    // depth 22 x 7 pending siblings + 1
 
@@ -48,7 +56,12 @@ void main() {
   const vec3 p = pi4.xyz;
   const float hi_ = pi4.w;
   const uvec2 mask = feature_masks[features[i]];
+#ifdef NEIGHBOUR_LIST
+  const float cutoff = SUPPORT * hi_ * (1.0 + pc.skin);
+  const uint list_start = i * pc.capacity;
+#else
   const float cutoff = SUPPORT * hi_;
+#endif
   uint stack[STACK];
   uint sp = 0;
   stack[sp++] = 0;
@@ -96,15 +109,13 @@ void main() {
         const vec4 pj = particles[j];
         const vec3 delta = p - pj.xyz;
         const float r = length(delta);
-        const float scale = SUPPORT * min(hi_, pj.w);
-        const float d = max(r / scale, 1e-3);
-        if (d >= 1.0) continue;
+#ifdef NEIGHBOUR_LIST
+        if (r >= SUPPORT * min(hi_, pj.w) * (1.0 + pc.skin)) continue;
+        if (pairs < pc.capacity) lists[list_start + pairs] = j;
         ++pairs;
-        const float x = d * PI * 0.5;
-        const float c = cos(x) / sin(x);
-        energy += c + x - PI * 0.5;
-        // dE/dd = -(pi/2) cot^2; dd/dp_i = delta / (r scale)
-        if (r > 0.0) grad += (-0.5 * PI * c * c) * delta / (r * scale);
+#else
+        if (add_pair_energy(delta, r, SUPPORT * min(hi_, pj.w), energy, grad)) ++pairs;
+#endif
       }
     } else if (sp + children <= STACK) {
       for (uint c = 0; c < children; ++c) stack[sp++] = node.z + c;
@@ -112,7 +123,11 @@ void main() {
       work = WORK_BUDGET;  // cannot happen for depth <= 22; report rather than drop nodes
     }
   }
+#ifdef NEIGHBOUR_LIST
+  atomicMax(longest[0], pairs);
+#else
   result[i] = vec4(grad, energy);
+#endif
   counts[i] = pairs | ((sp > 0 || work >= WORK_BUDGET) ? 0x80000000u : 0u);
   visits[i] = visited;
 }

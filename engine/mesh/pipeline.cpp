@@ -111,7 +111,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   begin("advection");
   int iterations_so_far = 0;
-  auto relaxed = particles::relax(ctx, F.embedding, seeds, options.advection, options.population,
+  auto relaxed = particles::relax(ctx, F.embedding, seeds,
+                                  particles::with_sizing_grading(options.advection, options.fields.sizing.grading),
+                                  options.population,
                                   [&](const particles::RoundReport& r) {
                                     iterations_so_far += r.iterations;
                                     char times[96];

@@ -6,7 +6,16 @@
 
 namespace cpmesh::octree {
 
-TreeWalk::TreeWalk(gpu::Context& ctx) : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh) {}
+namespace {
+struct WalkPush {
+  uint32_t walkers;
+  float theta, skin;
+  uint32_t capacity;
+};
+}  // namespace
+
+TreeWalk::TreeWalk(gpu::Context& ctx)
+    : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh), lists_(ctx, shaders::tree_walk_lists) {}
 
 void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
@@ -18,14 +27,27 @@ void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, 
       n > visits.size())
     throw gpu::Error("tree walk: n exceeds a buffer");
   walkers = std::min(walkers, n);
-  const struct {
-    uint32_t walkers;
-    float theta;
-  } push{walkers, theta};
   seq.dispatch(theta > 0.0f ? barnes_hut_ : exact_,
                {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features,
                 feature_masks, result, counts, visits},
-               push, walkers);
+               WalkPush{walkers, theta, 0.0f, 0}, walkers);
+}
+
+void TreeWalk::record_lists(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
+                            const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
+                            const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
+                            const gpu::Buffer<uint32_t>& lists, const gpu::Buffer<uint32_t>& lengths,
+                            const gpu::Buffer<uint32_t>& visits, const gpu::Buffer<uint32_t>& longest, uint32_t n,
+                            float skin, uint32_t capacity) const {
+  if (n > particles.size() || n > features.size() || n > lengths.size() || n > order.size() || n > visits.size() ||
+      capacity == 0 || uint64_t(n) * capacity > lists.size() || uint64_t(n) * capacity > 0xffffffffull ||
+      longest.size() < 1)
+    throw gpu::Error("neighbour lists: n or the capacity exceeds a buffer");
+  if (!(skin >= 0.0f)) throw gpu::Error("neighbour lists: the skin must be >= 0");
+  seq.dispatch(lists_,
+               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features,
+                feature_masks, lists, lengths, visits, longest},
+               WalkPush{n, 0.0f, skin, capacity}, n);
 }
 
 }  // namespace cpmesh::octree

@@ -1,5 +1,6 @@
 #pragma once
-// Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy).
+// Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy),
+// and the same walk building Verlet neighbour lists (reference ref::neighbour_lists).
 #include <glm/glm.hpp>
 
 #include "octree/octree_build.h"
@@ -20,10 +21,22 @@ class TreeWalk {
               uint32_t walkers = ~0u,  // walk only the first `walkers` particles in Morton order
               float theta = 0.0f) const;  // 0: exact; > 0: lump far nodes (size / distance < theta) at their centre
 
+  // Verlet neighbour lists (shaders/tree_walk.comp with NEIGHBOUR_LIST): for each particle i, the particles j that
+  // interact with i by the feature rule and lie within SUPPORT min(h_i, h_j) (1 + skin), SUPPORT = 2 cos(pi/6) (the
+  // pair's support widened by the skin), in walk order:
+  // lists[i * capacity + q] for q < min(lengths[i], capacity); lengths[i] = the full count (bit 31 as counts above);
+  // longest[0] = max(longest[0], every full count) (the caller zeroes it, and grows the capacity when it exceeds it).
+  void record_lists(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
+                    const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
+                    const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
+                    const gpu::Buffer<uint32_t>& lists, const gpu::Buffer<uint32_t>& lengths,
+                    const gpu::Buffer<uint32_t>& visits, const gpu::Buffer<uint32_t>& longest, uint32_t n, float skin,
+                    uint32_t capacity) const;
+
   static constexpr uint32_t kBudgetExceeded = 0x80000000u;
 
  private:
-  gpu::Kernel exact_, barnes_hut_;  // shaders/tree_walk.comp without and with BARNES_HUT
+  gpu::Kernel exact_, barnes_hut_, lists_;  // shaders/tree_walk.comp plain, with BARNES_HUT, with NEIGHBOUR_LIST
 };
 
 }  // namespace cpmesh::octree

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <cstring>
 #include <numeric>
+#include <stdexcept>
 
 #include "cpmesh/shaders.h"
 
@@ -54,6 +56,8 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       reduce_(ctx),
       advect_(ctx, shaders::advect, embedding_->spec_constants()),
       population_flags_(ctx, shaders::population_flags),
+      neighbour_energy_(ctx, shaders::neighbour_energy),
+      neighbour_drift_(ctx, shaders::neighbour_drift),
       particles_(ctx, particles, "particles"),
       particles_spare_(ctx, n_, "particles (permuted)"),
       walk_result_(ctx, n_, "walk result"),
@@ -74,6 +78,13 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       level_info_(ctx, 22, "octree levels"),
       energy_(ctx, n_, "particle energy"),
       readback_(ctx, 1, "total energy", gpu::MemoryUse::readback) {
+  if (uses_lists()) {
+    if (!(options.neighbour_grading >= 0.0f)) throw std::invalid_argument("neighbour lists: the grading must be >= 0");
+    list_lengths_ = gpu::Buffer<uint32_t>(ctx, n_, "neighbour list lengths");
+    longest_ = gpu::Buffer<uint32_t>(ctx, 1, "longest neighbour list", gpu::MemoryUse::readback);
+    drift_bits_ = gpu::Buffer<uint32_t>(ctx, 1, "neighbour drift", gpu::MemoryUse::readback);
+    anchors_ = gpu::Buffer<glm::vec4>(ctx, n_, "neighbour list anchors");
+  }
   if (features.size() != particles.size()) throw std::invalid_argument("one feature per particle");
   // Octree depth: particles keep about h apart, so cells smaller than a quarter of the smallest h (of the sizing field
   // and of these particles) split nothing useful; stopping there saves most of the 21 levels' dispatches.
@@ -88,7 +99,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
     max_level_ = uint32_t(std::clamp(int(std::ceil(std::log2(extent / (0.25 * double(h_min))))), 1, 21));
 }
 
-void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
+void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
   if (rebuild) {
     sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
     permute_.record(seq, order_, particles_, features_, ids_, particles_spare_, features_spare_, ids_spare_, n_);
@@ -97,14 +108,62 @@ void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
     std::swap(features_, features_spare_);
     std::swap(ids_, ids_spare_);
     ids_host_.clear();
+    lists_valid_ = false;  // the slots moved
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
     steps_since_build_ = 0;
   }
   moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_,
                   max_level_);
+}
+
+void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
+  record_tree(seq, rebuild);
   walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
                visits_, n_, ~0u, options_.theta);
   seq.barrier();
+}
+
+void ParticleSystem::build_lists() {
+  // The first capacity is a guess (a relaxed surface sampling has about 18 particles within the support, 40 within
+  // a skin of 0.5); the walk reports the longest list, and the lists are walked again into a buffer a quarter longer
+  // than that whenever it did not fit. Longer than the limit: walk every step instead (particle_system.h).
+  const uint64_t limit = std::min<uint64_t>(
+      kMaxListEntries, ctx_->info().max_storage_buffer_range / sizeof(uint32_t) / std::max<uint32_t>(n_, 1));
+  const float reach = 1.0f + options_.neighbour_skin;
+  if (list_capacity_ == 0)
+    list_capacity_ = uint32_t(std::min<uint64_t>(limit, std::max(8u, uint32_t(std::ceil(24.0f * reach * reach)))));
+  bool fresh_tree = true;
+  for (;;) {
+    if (list_capacity_ == 0) {
+      lists_too_long_ = true;
+      return;
+    }
+    if (lists_.size() < size_t(n_) * list_capacity_) {
+      lists_ = gpu::Buffer<uint32_t>();  // release before allocating the larger one
+      lists_ = gpu::Buffer<uint32_t>(*ctx_, size_t(n_) * list_capacity_, "neighbour lists");
+    }
+    gpu::Sequence seq(*ctx_);
+    seq.fill(longest_, 0).barrier();
+    if (fresh_tree) record_tree(seq, true);
+    seq.barrier();
+    walk_.record_lists(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, lists_,
+                       list_lengths_, visits_, longest_, n_, options_.neighbour_skin, list_capacity_);
+    seq.copy(particles_, anchors_, uint64_t(n_) * sizeof(glm::vec4)).barrier();
+    seq.submit_and_wait();
+    fresh_tree = false;
+    const uint32_t longest = longest_.read(0);
+    if (longest <= list_capacity_) break;
+    if (longest > limit) {
+      lists_too_long_ = true;
+      lists_ = gpu::Buffer<uint32_t>();
+      return;
+    }
+    list_capacity_ = uint32_t(std::min<uint64_t>(limit, longest + longest / 4 + 1));
+  }
+  lists_valid_ = true;
+  drift_ = 0.0f;
+  list_steps_ = 0;
+  ++list_builds_;
 }
 
 std::vector<glm::vec4> ParticleSystem::energies() {
@@ -115,10 +174,38 @@ std::vector<glm::vec4> ParticleSystem::energies() {
 }
 
 IterationStats ParticleSystem::step() {
+  bool lists = false;
+  if (uses_lists()) {
+    if (lists_valid_ && drift_ <= options_.drift_limit()) {
+      lists = true;
+    } else if (walk_steps_left_ > 0) {
+      --walk_steps_left_;
+    } else if (lists_valid_ && list_steps_ < 2) {
+      // Lists that served one step cost more than that step's walk: walk for a while (longer each time it happens
+      // in a row), then try again (particle_system.h).
+      walk_steps_left_ = backoff_ - 1;
+      backoff_ = std::min(backoff_ * 2, kMaxBackoff);
+      lists_valid_ = false;
+    } else {
+      if (lists_valid_) backoff_ = kMinBackoff;  // they lasted
+      build_lists();
+      lists = uses_lists();  // (the build may have found them too long)
+    }
+  }
+  if (lists) ++list_steps_;
   gpu::Sequence seq(*ctx_);
-  seq.fill(lost_, 0).barrier();
-  record_walk(seq, steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1));
-  ++steps_since_build_;
+  seq.fill(lost_, 0);
+  if (lists) seq.fill(drift_bits_, 0);
+  seq.barrier();
+  if (lists) {
+    const struct {
+      uint32_t n, capacity;
+    } push{n_, list_capacity_};
+    seq.dispatch(neighbour_energy_, {particles_, lists_, list_lengths_, walk_result_, counts_}, push, n_).barrier();
+  } else {
+    record_walk(seq, steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1));
+    ++steps_since_build_;
+  }
   const auto& e = *embedding_;
   const struct {
     glm::ivec4 dims_sub;
@@ -132,11 +219,16 @@ IterationStats ParticleSystem::step() {
                 feature_kinds_, walk_result_, energy_, lost_},
                push, n_)
       .barrier();
+  if (lists) seq.dispatch(neighbour_drift_, {particles_, anchors_, drift_bits_}, n_, n_);
   reduce_.record(seq, gpu::ReduceOp::sum, energy_, n_, readback_);
   seq.submit_and_wait();
   IterationStats s;
   s.energy = readback_.read(0);
   s.lost = lost_.read(0);
+  if (lists) {
+    const uint32_t bits = drift_bits_.read(0);
+    std::memcpy(&drift_, &bits, sizeof bits);
+  }
   return s;
 }
 

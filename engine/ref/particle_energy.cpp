@@ -31,4 +31,28 @@ std::vector<glm::vec4> particle_energy(const std::vector<glm::vec4>& particles, 
   return out;
 }
 
+std::vector<std::vector<uint32_t>> neighbour_lists(const std::vector<glm::vec4>& particles,
+                                                   const std::vector<uint32_t>& features,
+                                                   const std::vector<uint64_t>& masks, float skin) {
+  const float support = 1.7320508075688772f;
+  std::vector<std::vector<uint32_t>> out(particles.size());
+  for (size_t i = 0; i < particles.size(); ++i) {
+    const glm::vec3 p(particles[i]);
+    const uint64_t mask = masks[features[i]];
+    for (size_t j = 0; j < particles.size(); ++j) {
+      if (j == i || (masks[features[j]] & mask) != mask) continue;
+      const float cutoff = support * std::min(particles[i].w, particles[j].w) * (1.0f + skin);
+      if (glm::length(p - glm::vec3(particles[j])) < cutoff) out[i].push_back(uint32_t(j));
+    }
+  }
+  return out;
+}
+
+float neighbour_drift(const std::vector<glm::vec4>& particles, const std::vector<glm::vec4>& anchors) {
+  float worst = 0.0f;
+  for (size_t i = 0; i < particles.size(); ++i)
+    worst = std::max(worst, glm::length(glm::vec3(particles[i]) - glm::vec3(anchors[i])) / anchors[i].w);
+  return worst;
+}
+
 }  // namespace cpmesh::ref

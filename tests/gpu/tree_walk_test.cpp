@@ -2,8 +2,11 @@
 // features, and the work budget that keeps every invocation far below lavapipe's loop limit.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <random>
 
+#include "cpmesh/shaders.h"
 #include "gpu_fixture.h"
 #include "octree/morton.h"
 #include "octree/octree_build.h"
@@ -94,4 +97,112 @@ TEST_CASE_FIXTURE(GpuFixture, "a walk that would pass lavapipe's loop limit is c
   }
   CHECK(walked == walkers);
   CHECK(flagged == walkers);
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past their capacity, and give the walk's energies") {
+  const std::vector<uint64_t> masks = {0b11, 0b111, 0b110, 0b11000};
+  const uint32_t n = 3000, leaf = 16;
+  const float skin = 0.5f;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 20.0f), h(0.8f, 2.5f);
+  std::vector<glm::vec4> particles(n);
+  std::vector<uint32_t> features(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    particles[i] = glm::vec4(u(rng), u(rng), u(rng), h(rng));
+    features[i] = uint32_t(rng() % masks.size());
+  }
+  octree::MortonSort sorter(ctx);
+  octree::OctreeBuild build(ctx);
+  octree::OctreeMoments moments(ctx);
+  octree::TreeWalk tree_walk(ctx);
+  const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
+  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), result(ctx, n, "result");
+  octree::NodeMoments m(ctx, capacity);
+  gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), lengths(ctx, n, "lengths"),
+      visits(ctx, n, "visits"), counts(ctx, n, "counts"), longest(ctx, 1, "longest");
+  gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
+  gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
+  gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+  {
+    gpu::Sequence seq(ctx);
+    sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(20.0f)), keys, order, n);
+    build.record(seq, keys, n, leaf, nodes, info);
+    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
+    seq.submit_and_wait();
+  }
+  auto list_walk = [&](uint32_t per_particle, gpu::Buffer<uint32_t>& lists) {
+    gpu::Sequence seq(ctx);
+    seq.fill(longest, 0).barrier();
+    tree_walk.record_lists(seq, nodes, m, order, pb, fb, mb, lists, lengths, visits, longest, n, skin, per_particle);
+    seq.submit_and_wait();
+    return longest.read(0);
+  };
+  const auto want = ref::neighbour_lists(particles, features, masks, skin);
+  size_t want_longest = 0;
+  for (const auto& l : want) want_longest = std::max(want_longest, l.size());
+  REQUIRE(want_longest > 4);
+  // Too small a capacity: the longest list is still counted in full, and the lengths say which lists overflowed.
+  gpu::Buffer<uint32_t> small(ctx, size_t(n) * 4, "lists (4 each)");
+  CHECK(list_walk(4, small) == want_longest);
+  const uint32_t cap = uint32_t(want_longest);
+  gpu::Buffer<uint32_t> lists(ctx, size_t(n) * cap, "lists");
+  CHECK(list_walk(cap, lists) == want_longest);
+  const auto got = lists.download();
+  const auto got_lengths = lengths.download();
+  size_t listed = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    CAPTURE(i);
+    REQUIRE((got_lengths[i] & octree::TreeWalk::kBudgetExceeded) == 0);
+    std::vector<uint32_t> l(got.begin() + ptrdiff_t(size_t(i) * cap), got.begin() + ptrdiff_t(size_t(i) * cap + got_lengths[i]));
+    std::sort(l.begin(), l.end());
+    CHECK(l == want[i]);
+    listed += l.size();
+  }
+  CHECK(listed > 5000);  // real lists
+  // The energy over the lists is the brute-force energy (the lists hold every pair within the support and more).
+  gpu::Kernel energy(ctx, shaders::neighbour_energy);
+  {
+    gpu::Sequence seq(ctx);
+    const struct {
+      uint32_t n, capacity;
+    } push{n, cap};
+    seq.dispatch(energy, {pb, lists, lengths, result, counts}, push, n);
+    seq.submit_and_wait();
+  }
+  const auto e = result.download();
+  const auto e_counts = counts.download();
+  const auto e_want = ref::particle_energy(particles, features, masks);
+  uint64_t pairs = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    CHECK((e_counts[i] & octree::TreeWalk::kBudgetExceeded) == 0);
+    pairs += e_counts[i];
+    CHECK(e[i].w == doctest::Approx(e_want[i].w).epsilon(1e-4).scale(1.0));
+    CHECK(glm::length(glm::vec3(e[i]) - glm::vec3(e_want[i])) <= 1e-4f * (1.0f + glm::length(glm::vec3(e_want[i]))));
+  }
+  CHECK(pairs > 1000);
+  CHECK(pairs < listed);  // the skin's pairs are listed but do not interact
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "neighbour drift is the largest move relative to h, as in the reference") {
+  const uint32_t n = 5000;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 20.0f), h(0.5f, 2.0f), step(-0.1f, 0.1f);
+  std::vector<glm::vec4> anchors(n), particles(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    anchors[i] = glm::vec4(u(rng), u(rng), u(rng), h(rng));
+    particles[i] = anchors[i] + glm::vec4(step(rng), step(rng), step(rng), 0.0f);
+  }
+  particles[1234] += glm::vec4(0.3f, 0.0f, 0.0f, 0.0f);  // one particle well ahead of the rest
+  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), ab(ctx, anchors, "anchors");
+  gpu::Buffer<uint32_t> drift(ctx, 1, "drift");
+  gpu::Kernel kernel(ctx, shaders::neighbour_drift);
+  gpu::Sequence seq(ctx);
+  seq.fill(drift, 0).barrier().dispatch(kernel, {pb, ab, drift}, n, n);
+  seq.submit_and_wait();
+  const uint32_t bits = drift.read(0);
+  float got;
+  std::memcpy(&got, &bits, sizeof got);
+  const float want = ref::neighbour_drift(particles, anchors);
+  CHECK(want >= 0.3f / 2.0f);
+  CHECK(got == doctest::Approx(want).epsilon(1e-6));
 }

@@ -45,11 +45,12 @@ double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) 
 }
 
 // The stages of one iteration, by kernel: sort (Morton codes and radix passes), tree (octree levels, scans,
-// compaction, moments), walk (Barnes-Hut forces), advect (move and project), other (energy reduction).
+// compaction, moments), walk (the octree walk of either mode, or the neighbour lists' builds and sums), advect (move
+// and project), other (energy reduction, list drift).
 const char* kernel_stage(const std::string& kernel) {
   if (kernel == "morton_codes" || kernel.rfind("radix", 0) == 0) return "sort";
   if (kernel.rfind("octree", 0) == 0 || kernel.rfind("scan", 0) == 0 || kernel.rfind("compact", 0) == 0) return "tree";
-  if (kernel == "tree_walk") return "walk";
+  if (kernel.rfind("tree_walk", 0) == 0 || kernel == "neighbour_energy") return "walk";
   if (kernel == "advect") return "advect";
   return "other";
 }
@@ -200,9 +201,15 @@ int main(int argc, char** argv) {
     auto time_modes = [&](const char* volume, const fields::ClosestPointEmbedding& E, const std::vector<glm::vec4>& start,
                           const std::vector<uint32_t>& features) {
       const uint32_t n = uint32_t(start.size());
-      for (float mode : {0.0f, theta}) {
+      struct Mode {
+        const char* name;
+        float theta, skin;
+      };
+      for (const Mode& m : {Mode{"exact", 0.0f, 0.0f}, Mode{"lists", 0.0f, particles::AdvectionOptions{}.neighbour_skin},
+                            Mode{"theta", theta, 0.0f}}) {
         particles::AdvectionOptions opt;
-        opt.theta = mode;
+        opt.theta = m.theta;
+        opt.neighbour_skin = m.skin;
         particles::ParticleSystem system(ctx, E, start, features, opt);
         system.step();  // warm-up (pipelines, first allocation touches)
         ctx.clear_profile();
@@ -217,15 +224,18 @@ int main(int argc, char** argv) {
         const double wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         double walk_ms = 0;
         nlohmann::json kernels = gpu::profile_json(ctx);
-        if (ctx.profile().count("tree_walk")) walk_ms = ctx.profile().at("tree_walk").total_ms;
+        // The energy's kernels: the walk of either mode, or the list builds' walks and the sums over the lists.
+        for (const char* k : {"tree_walk", "tree_walk_bh", "tree_walk_lists", "neighbour_energy"})
+          if (ctx.profile().count(k)) walk_ms += ctx.profile().at(k).total_ms;
         const double per_iter = wall_ms / iterations;
         const double mpairs = double(pairs) / (walk_ms > 0 ? walk_ms : wall_ms) / 1e3;
         const double nodes_per_particle = double(visits) / double(iterations) / double(n);
         std::printf("%-11s %-10u %-8s %10.1f %12.1f %14.2f %12.1f %12.1f %14.6g\n", volume, n,
-                    mode > 0 ? "theta" : "exact", per_iter, walk_ms / iterations, mpairs,
+                    m.name, per_iter, walk_ms / iterations, mpairs,
                     double(pairs) / double(iterations) / double(n), nodes_per_particle, energy);
         const nlohmann::json j = {{"benchmark", "particles"}, {"device", ctx.info().name}, {"volume", volume},
-                                  {"particles", n}, {"mode", mode > 0 ? "theta" : "exact"}, {"theta", mode},
+                                  {"particles", n}, {"mode", m.name}, {"theta", m.theta},
+                                  {"skin", m.skin}, {"list_builds", system.list_builds()},
                                   {"iterations", iterations}, {"ms_per_iteration", per_iter},
                                   {"walk_ms_per_iteration", walk_ms / iterations}, {"mpairs_per_s", mpairs},
                                   {"nodes_per_particle", nodes_per_particle}, {"final_energy", energy},

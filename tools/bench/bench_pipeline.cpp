@@ -63,6 +63,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--band", band, "Narrow band of the indicator fields, voxels (fewer subcells need a deeper band)")
       ->capture_default_str();
+  float skin = mesh::MeshOptions{}.advection.neighbour_skin;
+  app.add_option("--skin", skin, "Verlet neighbour lists' skin, a share of h (0: walk the octree every iteration)")
+      ->check(CLI::Range(0.0, 4.0))
+      ->capture_default_str();
   size_t max_particles = mesh::MeshOptions{}.max_particles;
   app.add_option("--max-particles", max_particles,
                  "A volume whose seeding makes more particles stops there and gets a row saying so (0: no limit); "
@@ -96,6 +100,7 @@ int main(int argc, char** argv) {
       options.fields.sizing.h_min = min_size;
       options.fields.embedding.sub = subcells;
       options.fields.indicator.band = band;
+      options.advection.neighbour_skin = skin;
       options.max_particles = max_particles;
       options.population.seed = seed;
       const auto t0 = std::chrono::steady_clock::now();
@@ -153,7 +158,7 @@ int main(int argc, char** argv) {
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
           {"settings",
            {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"subcells", subcells},
-            {"band", band},
+            {"band", band}, {"skin", skin},
             {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel

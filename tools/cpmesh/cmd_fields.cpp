@@ -73,6 +73,11 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
 
 void add_advection_options(CLI::App* sub, particles::AdvectionOptions& a) {
   sub->add_option("--theta", a.theta, "Barnes-Hut opening angle (0: exact walk)")->capture_default_str();
+  sub->add_option("--skin", a.neighbour_skin,
+                  "Verlet neighbour lists: their reach beyond the energy's support, a share of h (0: walk the octree "
+                  "every iteration; the exact walk only)")
+      ->check(CLI::Range(0.0, 4.0))
+      ->capture_default_str();
   sub->add_option("--delta", a.delta, "Stop rule: relative energy decrease per iteration (paper: 0.0015)")->capture_default_str();
 }
 

@@ -82,7 +82,9 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
             });
             gpu::Context ctx(g.context());
             const auto r = progress.stage("advection and add/delete", [&] {
-              return particles::relax(ctx, F.embedding, seeds, o->advection, o->population,
+              return particles::relax(ctx, F.embedding, seeds,
+                                      particles::with_sizing_grading(o->advection, o->fields.sizing.grading),
+                                      o->population,
                                       [](const particles::RoundReport& rr) {
                                         if (isatty(STDERR_FILENO))
                                           std::fprintf(stderr, "\n  round %d: %d iterations, +%u -%u, %u particles",
