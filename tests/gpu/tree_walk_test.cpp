@@ -18,6 +18,51 @@ using cpmesh::test::GpuFixture;
 
 namespace {
 
+// n particles in a 20^3 box, h in [0.8, 2.5], each on one of `feature_count` features at random.
+void random_particles(uint32_t n, uint32_t seed, size_t feature_count, std::vector<glm::vec4>& particles,
+                      std::vector<uint32_t>& features) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 20.0f), h(0.8f, 2.5f);
+  particles.resize(n);
+  features.resize(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    particles[i] = glm::vec4(u(rng), u(rng), u(rng), h(rng));
+    features[i] = uint32_t(rng() % feature_count);
+  }
+}
+
+// Particles on the device, Morton-sorted into an octree with its moments (the walks' input).
+struct Tree {
+  Tree(gpu::Context& ctx, const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
+       const std::vector<uint64_t>& masks, float extent)
+      : n(uint32_t(particles.size())),
+        pb(ctx, particles, "particles"),
+        m(ctx, octree::OctreeBuild::node_capacity(n, kLeaf)),
+        fb(ctx, features, "features"),
+        order(ctx, n, "order"),
+        visits(ctx, n, "visits"),
+        mb(ctx, masks, "feature masks"),
+        nodes(ctx, octree::OctreeBuild::node_capacity(n, kLeaf), "nodes") {
+    octree::MortonSort sorter(ctx);
+    octree::OctreeBuild build(ctx);
+    octree::OctreeMoments moments(ctx);
+    gpu::Buffer<uint64_t> keys(ctx, n, "keys");
+    gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+    gpu::Sequence seq(ctx);
+    sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(extent)), keys, order, n);
+    build.record(seq, keys, n, kLeaf, nodes, info);
+    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
+    seq.submit_and_wait();
+  }
+  static constexpr uint32_t kLeaf = 16;
+  uint32_t n;
+  gpu::Buffer<glm::vec4> pb;
+  octree::NodeMoments m;
+  gpu::Buffer<uint32_t> fb, order, visits;
+  gpu::Buffer<uint64_t> mb;
+  gpu::Buffer<glm::uvec4> nodes;
+};
+
 struct WalkResult {
   std::vector<glm::vec4> result;
   std::vector<uint32_t> counts;
@@ -25,26 +70,13 @@ struct WalkResult {
 
 WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
                 const std::vector<uint64_t>& masks, float extent, uint32_t walkers = ~0u) {
-  const uint32_t n = uint32_t(particles.size()), leaf = 16;
-  octree::MortonSort sorter(ctx);
-  octree::OctreeBuild build(ctx);
-  octree::OctreeMoments moments(ctx);
+  const Tree t(ctx, particles, features, masks, extent);
   octree::TreeWalk tree_walk(ctx);
-  const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
-  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), result(ctx, n, "result");
-  octree::NodeMoments m(ctx, capacity);
-  gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), counts(ctx, n, "counts"),
-      visits(ctx, n, "visits");
-  gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
-  gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
-  gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
+  gpu::Buffer<glm::vec4> result(ctx, t.n, "result");
+  gpu::Buffer<uint32_t> counts(ctx, t.n, "counts");
   gpu::Sequence seq(ctx);
-  sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(extent)), keys, order, n);
-  build.record(seq, keys, n, leaf, nodes, info);
-  moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
-  seq.fill(counts, 0);
-  seq.barrier();
-  tree_walk.record(seq, nodes, m, order, pb, fb, mb, result, counts, visits, n, walkers);
+  seq.fill(counts, 0).barrier();
+  tree_walk.record(seq, t.nodes, t.m, t.order, t.pb, t.fb, t.mb, result, counts, t.visits, t.n, walkers);
   seq.submit_and_wait();
   return {result.download(), counts.download()};
 }
@@ -56,14 +88,9 @@ TEST_CASE_FIXTURE(GpuFixture, "tree walk energies and gradients match brute forc
   const std::vector<uint64_t> masks = {0b11, 0b111, 0b110, 0b11000};
   for (uint32_t n : {1u, 64u, 3000u}) {
     CAPTURE(n);
-    std::mt19937 rng(n);
-    std::uniform_real_distribution<float> u(0.0f, 20.0f), h(0.8f, 2.5f);
-    std::vector<glm::vec4> particles(n);
-    std::vector<uint32_t> features(n);
-    for (uint32_t i = 0; i < n; ++i) {
-      particles[i] = glm::vec4(u(rng), u(rng), u(rng), h(rng));
-      features[i] = uint32_t(rng() % masks.size());
-    }
+    std::vector<glm::vec4> particles;
+    std::vector<uint32_t> features;
+    random_particles(n, n, masks.size(), particles, features);
     const auto got = walk(ctx, particles, features, masks, 20.0f);
     const auto want = ref::particle_energy(particles, features, masks);
     uint64_t pairs = 0;
@@ -101,39 +128,20 @@ TEST_CASE_FIXTURE(GpuFixture, "a walk that would pass lavapipe's loop limit is c
 
 TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past their capacity, and give the walk's energies") {
   const std::vector<uint64_t> masks = {0b11, 0b111, 0b110, 0b11000};
-  const uint32_t n = 3000, leaf = 16;
+  const uint32_t n = 3000;
   const float skin = 0.5f;
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(0.0f, 20.0f), h(0.8f, 2.5f);
-  std::vector<glm::vec4> particles(n);
-  std::vector<uint32_t> features(n);
-  for (uint32_t i = 0; i < n; ++i) {
-    particles[i] = glm::vec4(u(rng), u(rng), u(rng), h(rng));
-    features[i] = uint32_t(rng() % masks.size());
-  }
-  octree::MortonSort sorter(ctx);
-  octree::OctreeBuild build(ctx);
-  octree::OctreeMoments moments(ctx);
+  std::vector<glm::vec4> particles;
+  std::vector<uint32_t> features;
+  random_particles(n, 7, masks.size(), particles, features);
+  const Tree t(ctx, particles, features, masks, 20.0f);
   octree::TreeWalk tree_walk(ctx);
-  const size_t capacity = octree::OctreeBuild::node_capacity(n, leaf);
-  gpu::Buffer<glm::vec4> pb(ctx, particles, "particles"), result(ctx, n, "result");
-  octree::NodeMoments m(ctx, capacity);
-  gpu::Buffer<uint32_t> fb(ctx, features, "features"), order(ctx, n, "order"), lengths(ctx, n, "lengths"),
-      visits(ctx, n, "visits"), counts(ctx, n, "counts"), longest(ctx, 1, "longest");
-  gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks"), keys(ctx, n, "keys");
-  gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
-  gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
-  {
-    gpu::Sequence seq(ctx);
-    sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(20.0f)), keys, order, n);
-    build.record(seq, keys, n, leaf, nodes, info);
-    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
-    seq.submit_and_wait();
-  }
+  gpu::Buffer<glm::vec4> result(ctx, n, "result");
+  gpu::Buffer<uint32_t> lengths(ctx, n, "lengths"), counts(ctx, n, "counts"), longest(ctx, 1, "longest");
   auto list_walk = [&](uint32_t per_particle, gpu::Buffer<uint32_t>& lists) {
     gpu::Sequence seq(ctx);
     seq.fill(longest, 0).barrier();
-    tree_walk.record_lists(seq, nodes, m, order, pb, fb, mb, lists, lengths, visits, longest, n, skin, per_particle);
+    tree_walk.record_lists(seq, t.nodes, t.m, t.order, t.pb, t.fb, t.mb, lists, lengths, t.visits, longest, n, skin,
+                           per_particle);
     seq.submit_and_wait();
     return longest.read(0);
   };
@@ -166,7 +174,7 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past thei
     const struct {
       uint32_t n, capacity;
     } push{n, cap};
-    seq.dispatch(energy, {pb, lists, lengths, result, counts}, push, n);
+    seq.dispatch(energy, {t.pb, lists, lengths, result, counts}, push, n);
     seq.submit_and_wait();
   }
   const auto e = result.download();
