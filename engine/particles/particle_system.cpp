@@ -144,7 +144,9 @@ void ParticleSystem::build_lists() {
     }
     gpu::Sequence seq(*ctx_);
     seq.fill(longest_, 0).barrier();
-    if (fresh_tree) record_tree(seq, true);
+    // The octree is re-sorted and rebuilt on the walk's schedule (rebuild_every) and refitted in between: refitted
+    // boxes keep the walk exact, and without a re-sort the particle slots, which the lists index, stay put.
+    if (fresh_tree) record_tree(seq, rebuild_due());
     seq.barrier();
     walk_.record_lists(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, lists_,
                        list_lengths_, visits_, longest_, n_, options_.neighbour_skin, list_capacity_);
@@ -203,9 +205,9 @@ IterationStats ParticleSystem::step() {
     } push{n_, list_capacity_};
     seq.dispatch(neighbour_energy_, {particles_, lists_, list_lengths_, walk_result_, counts_}, push, n_).barrier();
   } else {
-    record_walk(seq, steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1));
-    ++steps_since_build_;
+    record_walk(seq, rebuild_due());
   }
+  ++steps_since_build_;
   const auto& e = *embedding_;
   const struct {
     glm::ivec4 dims_sub;

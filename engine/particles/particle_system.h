@@ -32,7 +32,8 @@ struct AdvectionOptions {
   int min_iterations = 0;   // the stop rule is not tested before this many iterations
   // step() re-sorts the particles and rebuilds the octree's topology every this many iterations and only refits its
   // moments (boxes, centres, counts) in between: the walk prunes by the refitted boxes, so it stays exact, and
-  // particles move at most max_move h per iteration, so the boxes loosen little. 1: rebuild every iteration.
+  // particles move at most max_move h per iteration, so the boxes loosen little. 1: rebuild every iteration. The
+  // neighbour lists' builds (below) follow the same schedule: they refit the octree in between.
   int rebuild_every = 8;
   // Verlet neighbour lists (exact mode only, theta = 0): particle i's list holds the j within SUPPORT min(h_i, h_j)
   // (1 + skin) (SUPPORT = 2 cos(pi/6): the energy's support, widened by the skin); 0: walk every iteration.
@@ -41,7 +42,7 @@ struct AdvectionOptions {
   // apart; after moves of at most delta h_a and delta h_b, with h Lipschitz with constant g along the surfaces (so
   // h_b <= m + g r0, and h_a grows by at most g delta m), it is still at least SUPPORT m (1 + g delta) apart, beyond
   // the support, when delta <= SUPPORT s / (2 + SUPPORT g (2 + s)).
-  // Lists pay for their build (a walk with the wider reach, about 1.2 plain walks on lavapipe, plus the sort) only
+  // Lists pay for their build (a walk with the wider reach, about 1.2 plain walks on lavapipe, plus a refit) only
   // when they serve two steps or more (a step over them costs about 0.15 walks there). Where a few particles keep
   // moving fast (new ones after an add/delete round, thin layers that do not settle) they serve one: then the next
   // 4 steps walk the octree instead, 8 the next time it happens in a row, up to 32, and the lists are tried again.
@@ -121,7 +122,10 @@ class ParticleSystem {
 
  private:
   void record_walk(gpu::Sequence& seq, bool rebuild);
-  void record_tree(gpu::Sequence& seq, bool rebuild);  // sort and build (rebuild) or not, then the moments
+  void record_tree(gpu::Sequence& seq, bool rebuild);
+  bool rebuild_due() const {  // the octree's topology is rebuild_every steps old (or was never built)
+    return steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1);
+  }  // sort and build (rebuild) or not, then the moments
   void build_lists();  // its own submission(s): tree, lists (grown until they fit), anchors
   // A per-slot buffer read back with element i for the caller's particle i (slots are in Morton order).
   template <class T>

@@ -235,7 +235,9 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
   walk.rebuild_every = 1;
   walk.neighbour_skin = 0.0f;
   REQUIRE(lists.neighbour_skin > 0.0f);
-  thin.neighbour_skin = 0.02f;  // lists that go stale within a step or two: without the rebuilds, pairs would be missed
+  // Lists that go stale after a step: each build is followed by a back-off to walking, then lists again. Never
+  // rebuilt, they would miss pairs (below).
+  thin.neighbour_skin = 0.02f;
   std::vector<glm::vec4> start;
   {
     particles::ParticleSystem relax(ctx, s.fields.embedding, random_start, features, walk);
@@ -274,7 +276,7 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
                              << c.list_builds() << " builds");
   CHECK(b.list_builds() >= 2);   // the drift bound made it rebuild
   CHECK(b.list_builds() <= 8);   // and the lists served several steps each
-  CHECK(c.list_builds() > b.list_builds());
+  CHECK(c.list_builds() >= 3);  // built, backed off, built again (steps 1, 6, 15)
   // Measured: the same pair counts every step (4,926 -> 4,802); with the thin lists never rebuilt, 46 pairs short
   // by step 16. A pair at d = 1 within rounding may still flip between the runs.
   MESSAGE("pair counts differ by at most " << worst_pairs);
