@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 
@@ -118,6 +118,7 @@ void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
 
 void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
   record_tree(seq, rebuild);
+  last_step_listed_ = false;
   walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
                visits_, n_, ~0u, options_.theta);
   seq.barrier();
@@ -195,6 +196,7 @@ IterationStats ParticleSystem::step() {
     }
   }
   if (lists) ++list_steps_;
+  last_step_listed_ = lists;
   gpu::Sequence seq(*ctx_);
   seq.fill(lost_, 0);
   if (lists) seq.fill(drift_bits_, 0);
@@ -259,6 +261,7 @@ ParticleSystem::PopulationCheck ParticleSystem::check_population(const std::vect
 }
 
 uint64_t ParticleSystem::last_node_visits() const {
+  if (last_step_listed_) return 0;
   uint64_t total = 0;
   for (uint32_t v : visits_.download()) total += v;
   return total;

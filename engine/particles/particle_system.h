@@ -98,9 +98,10 @@ class ParticleSystem {
   // Energy and gradient of every particle at the current positions (a walk without a step).
   std::vector<glm::vec4> energies();
   uint32_t size() const { return n_; }
-  // Pairs evaluated by the last walk (a lumped node counts its particles), read back from the GPU.
+  // Pairs evaluated by the last energy evaluation, walk or neighbour lists (a lumped node counts its particles), read
+  // back from the GPU.
   uint64_t last_pair_count() const;
-  uint64_t last_node_visits() const;
+  uint64_t last_node_visits() const;  // by the last walk (0 when the last step summed over the neighbour lists)
   float alpha() const { return alpha_; }
   bool uses_lists() const { return options_.neighbour_skin > 0.0f && options_.theta <= 0.0f && !lists_too_long_; }
   static constexpr uint32_t kMaxListEntries = 256;  // per particle (uses_lists() above)
@@ -171,6 +172,7 @@ class ParticleSystem {
   float drift_ = 0.0f;
   int list_builds_ = 0;
   int list_steps_ = 0;        // steps served by the current lists
+  bool last_step_listed_ = false;  // the last energy evaluation summed over the lists (no walk)
   static constexpr int kMinBackoff = 4, kMaxBackoff = 32;
   int backoff_ = kMinBackoff;  // steps walked the next time lists serve only one step
   int walk_steps_left_ = 0;    // of those
