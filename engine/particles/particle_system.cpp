@@ -275,6 +275,10 @@ uint64_t ParticleSystem::last_pair_count() const {
 
 ParticleSystem::RunResult ParticleSystem::run() {
   RunResult r;
+  if (n_ == 0) {  // nothing to relax (the stop rule would never see an energy to compare)
+    r.converged = true;
+    return r;
+  }
   double previous = 0;
   for (int it = 0; it < options_.max_iterations; ++it) {
     const IterationStats s = step();

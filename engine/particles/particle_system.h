@@ -103,7 +103,9 @@ class ParticleSystem {
   uint64_t last_pair_count() const;
   uint64_t last_node_visits() const;  // by the last walk (0 when the last step summed over the neighbour lists)
   float alpha() const { return alpha_; }
-  bool uses_lists() const { return options_.neighbour_skin > 0.0f && options_.theta <= 0.0f && !lists_too_long_; }
+  bool uses_lists() const {
+    return options_.neighbour_skin > 0.0f && options_.theta <= 0.0f && !lists_too_long_ && n_ > 0;
+  }
   static constexpr uint32_t kMaxListEntries = 256;  // per particle (uses_lists() above)
   int list_builds() const { return list_builds_; }      // neighbour list builds so far
   uint32_t list_capacity() const { return list_capacity_; }  // entries per particle of the list buffer

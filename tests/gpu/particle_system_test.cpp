@@ -283,3 +283,19 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
   CHECK(worst_pairs <= 2);
   CHECK(worst_energy < 5e-5);
 }
+
+TEST_CASE_FIXTURE(GpuFixture, "a system of no particles steps and runs, with lists or without") {
+  const auto& s = sphere();
+  for (float skin : {0.0f, 0.5f}) {
+    CAPTURE(skin);
+    particles::AdvectionOptions o;
+    o.neighbour_skin = skin;
+    particles::ParticleSystem system(ctx, s.fields.embedding, {}, {}, o);
+    CHECK_FALSE(system.uses_lists());
+    CHECK(system.step().energy == 0.0);
+    const auto r = system.run();
+    CHECK(r.converged);
+    CHECK(r.iterations == 0);
+    CHECK(system.particles().empty());
+  }
+}
