@@ -1,9 +1,9 @@
 #version 450
 // Particle energy and its gradient from Verlet neighbour lists (particles::ParticleSystem; seed paper Eq. 1-2): the
 // exact tree walk's sum, over the list that tree_walk_lists stored for each particle instead of over the octree's
-// leaves. The lists hold every j within SUPPORT h_i (1 + skin) of where the particles were when they were built, so
-// while no particle has drifted too far since (neighbour_drift.comp; the bound is in particle_system.h) they hold
-// every j that interacts now. Same pair arithmetic as the walk (pair_energy.glsl). Reference: ref::particle_energy
+// leaves. The lists hold every j within SUPPORT min(h_i, h_j) (1 + skin) of where the particles were when they were
+// built, so while no particle has drifted too far since (neighbour_drift.comp; the bound is in particle_system.h)
+// they hold every j that interacts now. Same pair arithmetic as the walk (pair_energy.glsl). Reference: ref::particle_energy
 // (brute force); ref::neighbour_lists for the lists.
 // Bindings: 0 particles vec4[n] (xyz, w = h); 1 lists uint[n * capacity]; 2 list lengths uint[n] (bit 31: the walk
 //           that built them ran out of budget); 3 result vec4[n] (gradient of E_i wrt p_i in xyz, E_i in w); 4 counts

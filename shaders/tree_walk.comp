@@ -7,16 +7,17 @@
 // paper's Barnes-Hut mode) a node that does not hold the walker, is seen under size / distance < theta and whose
 // particles all interact with the walker (the AND of their feature masks) counts as its particles lumped at their
 // centre of mass with the node's smallest h.
-// Bindings: 0 nodes uvec4[]; 1 moments vec4[4 per node] (box min + min h, box max, centre + count, AND mask); 2 order uint[n]; 3 particles vec4[n]
-//           (xyz, w = h); 4 features uint[n]; 5 feature_masks uvec2[]; 6 result vec4[n] (gradient of E_i wrt p_i in
-//           xyz, E_i in w); 7 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran out);
-//           8 visits uint[n] (nodes visited).
+// Bindings: 0 nodes uvec4[]; 1-4 node moments vec4[] (box min + min h, box max, centre + count, AND mask); 5 order
+//           uint[n]; 6 particles vec4[n] (xyz, w = h); 7 features uint[n]; 8 feature_masks uvec2[]; 9 result vec4[n]
+//           (gradient of E_i wrt p_i in xyz, E_i in w); 10 counts uint[n] (pairs evaluated; bit 31 set when the work
+//           budget ran out); 11 visits uint[n] (nodes visited).
 // Compiled three times: tree_walk (exact; theta unused), tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
 // on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%; and
 // tree_walk_lists (-DNEIGHBOUR_LIST, octree::TreeWalk::record_lists): instead of the energy, each particle's Verlet
 // neighbour list, the particles j with (j's feature bounds i's) and |p_i - p_j| < SUPPORT min(h_i, h_j) (1 + skin)
-// (the pairs' support widened by the skin; the walk prunes by SUPPORT h_i (1 + skin)), in walk order, at most `capacity` stored from lists[i * capacity]; then binding 9 is the lists, 10 their full lengths
-// (bit 31: budget), and 12 a uint that gets the longest length (atomicMax), so the caller can grow the capacity.
+// (the pairs' support widened by the skin; the walk prunes by SUPPORT h_i (1 + skin)), in walk order, at most
+// `capacity` stored from lists[i * capacity]; then binding 9 is the lists, 10 their full lengths (bit 31: budget),
+// and 12 a uint that gets the longest length (atomicMax), so the caller can grow the capacity.
 // Push: walkers (<= n), theta, skin, capacity. Dispatch: walkers threads in Morton order (thread k handles particle
 // order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running

@@ -133,12 +133,12 @@ void ParticleSystem::build_lists() {
   const float reach = 1.0f + options_.neighbour_skin;
   if (list_capacity_ == 0)
     list_capacity_ = uint32_t(std::min<uint64_t>(limit, std::max(8u, uint32_t(std::ceil(24.0f * reach * reach)))));
+  if (list_capacity_ == 0) {  // not even one entry per particle fits the device's buffer range
+    lists_too_long_ = true;
+    return;
+  }
   bool fresh_tree = true;
   for (;;) {
-    if (list_capacity_ == 0) {
-      lists_too_long_ = true;
-      return;
-    }
     if (lists_.size() < size_t(n_) * list_capacity_) {
       lists_ = gpu::Buffer<uint32_t>();  // release before allocating the larger one
       lists_ = gpu::Buffer<uint32_t>(*ctx_, size_t(n_) * list_capacity_, "neighbour lists");

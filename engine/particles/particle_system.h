@@ -48,8 +48,8 @@ struct AdvectionOptions {
   // 4 steps walk the octree instead, 8 the next time it happens in a row, up to 32, and the lists are tried again.
   // A list buffer longer than the device allows (maxStorageBufferRange) or than kMaxListEntries per particle turns
   // the lists off for that system (uses_lists() false): it walks the octree every step instead.
-  // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding): 94 ms a step
-  // walking the octree, 73 / 66 / 64 ms with skins 0.3 / 0.5 / 0.8 (15 / 11 / 8 builds, 41 / 54 / 78 entries per
+  // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding): 91 ms a step
+  // walking the octree, 66 / 64 / 63 ms with skins 0.3 / 0.5 / 0.8 (13 / 9 / 8 builds, 41 / 54 / 78 entries per
   // particle); identical energies. The whole advection (three rounds, 50 steps): 5.5-5.6 -> 4.7-4.9 s; 64^3 1.07-1.13
   // -> 0.93-0.96 s.
   float neighbour_skin = 0.5f;
@@ -125,10 +125,10 @@ class ParticleSystem {
 
  private:
   void record_walk(gpu::Sequence& seq, bool rebuild);
-  void record_tree(gpu::Sequence& seq, bool rebuild);
+  void record_tree(gpu::Sequence& seq, bool rebuild);  // sort and build (rebuild) or not, then the moments
   bool rebuild_due() const {  // the octree's topology is rebuild_every steps old (or was never built)
     return steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1);
-  }  // sort and build (rebuild) or not, then the moments
+  }
   void build_lists();  // its own submission(s): tree, lists (grown until they fit), anchors
   // A per-slot buffer read back with element i for the caller's particle i (slots are in Morton order).
   template <class T>

@@ -14,8 +14,8 @@ std::vector<glm::vec4> particle_energy(const std::vector<glm::vec4>& particles, 
                                        const std::vector<uint64_t>& feature_masks);
 
 // Reference of the Verlet neighbour lists (shaders/tree_walk.comp with NEIGHBOUR_LIST): for each i, the j != i whose
-// feature bounds i's (the same rule) with |p_i - p_j| < 2 cos(pi/6) min(h_i, h_j) (1 + skin), ascending (the GPU stores them in
-// walk order).
+// feature bounds i's (the same rule) with |p_i - p_j| < 2 cos(pi/6) min(h_i, h_j) (1 + skin), ascending (the GPU
+// stores them in walk order).
 std::vector<std::vector<uint32_t>> neighbour_lists(const std::vector<glm::vec4>& particles,
                                                    const std::vector<uint32_t>& features,
                                                    const std::vector<uint64_t>& feature_masks, float skin);

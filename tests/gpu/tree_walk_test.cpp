@@ -161,7 +161,8 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past thei
   for (uint32_t i = 0; i < n; ++i) {
     CAPTURE(i);
     REQUIRE((got_lengths[i] & octree::TreeWalk::kBudgetExceeded) == 0);
-    std::vector<uint32_t> l(got.begin() + ptrdiff_t(size_t(i) * cap), got.begin() + ptrdiff_t(size_t(i) * cap + got_lengths[i]));
+    const auto first = got.begin() + ptrdiff_t(size_t(i) * cap);
+    std::vector<uint32_t> l(first, first + ptrdiff_t(got_lengths[i]));
     std::sort(l.begin(), l.end());
     CHECK(l == want[i]);
     listed += l.size();

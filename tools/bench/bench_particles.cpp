@@ -205,8 +205,8 @@ int main(int argc, char** argv) {
         const char* name;
         float theta, skin;
       };
-      for (const Mode& m : {Mode{"exact", 0.0f, 0.0f}, Mode{"lists", 0.0f, particles::AdvectionOptions{}.neighbour_skin},
-                            Mode{"theta", theta, 0.0f}}) {
+      const float skin = particles::AdvectionOptions{}.neighbour_skin;
+      for (const Mode& m : {Mode{"exact", 0.0f, 0.0f}, Mode{"lists", 0.0f, skin}, Mode{"theta", theta, 0.0f}}) {
         particles::AdvectionOptions opt;
         opt.theta = m.theta;
         opt.neighbour_skin = m.skin;
@@ -225,8 +225,8 @@ int main(int argc, char** argv) {
         double walk_ms = 0;
         nlohmann::json kernels = gpu::profile_json(ctx);
         // The energy's kernels: the walk of either mode, or the list builds' walks and the sums over the lists.
-        for (const char* k : {"tree_walk", "tree_walk_bh", "tree_walk_lists", "neighbour_energy"})
-          if (ctx.profile().count(k)) walk_ms += ctx.profile().at(k).total_ms;
+        for (const auto& [kernel, entry] : ctx.profile())
+          if (std::string(kernel_stage(kernel)) == "walk") walk_ms += entry.total_ms;
         const double per_iter = wall_ms / iterations;
         const double mpairs = double(pairs) / (walk_ms > 0 ? walk_ms : wall_ms) / 1e3;
         const double nodes_per_particle = double(visits) / double(iterations) / double(n);
