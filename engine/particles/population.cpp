@@ -574,10 +574,12 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
       result.settled = settled;
       result.steady = steady_rounds >= 2 || unchanged;
     } else {
-      // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running; one
-      // more advection run then ends it.
+      // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running, or
+      // once with a negligible change; one more advection run then ends it.
       const double net = std::fabs(double(rep.added) - double(rep.deleted));
       steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
+      // A negligible change (a few holes filled) is steady at once: the next run relaxes it and ends the rounds.
+      if (double(rep.added) + double(rep.deleted) <= options.negligible_share * double(n)) steady_rounds = 2;
       // The next run's length at least: a small change settles locally (population.h).
       const bool small = double(rep.added) + double(rep.deleted) <= options.small_change_share * double(n);
       adv.min_iterations = small ? std::min(options.min_iterations_per_round, options.min_iterations_after_small_change)

@@ -30,7 +30,8 @@
 //   Rounds end when the population is settled, when a round's add/delete step changed nothing (the population is
 //   then the one the last run relaxed: no further run), or when adds and deletes have balanced out two rounds
 //   running (steady: graded sizing keeps a churn of local adds and deletes, as the pair energy scales with the
-//   smaller h); every ending is after an advection run of the final population.
+//   smaller h) or after one round that changed a negligible share (negligible_share); every ending is after an
+//   advection run of the final population.
 //      The changed population is uploaded once per round.
 // The paper's rules (a) and (c) only repair local holes and clumps: a population that is evenly too dense or too
 // sparse has every particle's energy between the thresholds, so (b) is what brings the count to the sizing field's.
@@ -78,6 +79,8 @@ struct PopulationOptions {
   double energy_tolerance = 0.05;     // settled when each feature's mean E / ideal is within this of the above ...
   double significance = 0.1;          // ... and at most this share of the particles is flagged
   double steady_share = 0.01;         // steady: |added - deleted| below this share of n two rounds running
+  double negligible_share = 0.001;    // ... or, at once, added + deleted at most this share of n: so few changes
+                                      // settle in the next run, and another round would change as little
   int max_rounds = 20;                // add/delete rounds at most
   int iterations_per_round = 60;      // advection iterations per round at most (graded sizing rarely meets the stop
                                       // rule; 150 took 3x the time for the same quality on the wedge ball)
