@@ -2,7 +2,7 @@
 // Closest point lookup for a batch of points (fields::CpLookup): WENO4 interpolation on the closest point embedding,
 // no iterative search. Each query is a point in local coordinates (xyz) and its feature (w, as uint bits).
 // Bindings: 0 cp_keys uvec2[], 1 cp_tiles uint[], 2 cp_cells uint[] (fields::EmbeddingTiles); 3-6 cp_fine0..3
-//           vec4[] (the fine points in four chunks of chunk_blocks blocks); 7 queries vec4[n]; 8 results vec4[n]
+//           samplerBuffer (the fine points in four chunks of chunk_blocks blocks, RGBA32F texels); 7 queries vec4[n]; 8 results vec4[n]
 //           (closest point xyz, sizing w); 9 valid uint[n] (1, or 0 when the point left its feature's band).
 // Push: dims + sub, spacing, n, table mask, chunk_blocks. Dispatch: n threads, 64 per workgroup.
 // Reference: ref::cp_lookup.
@@ -13,10 +13,10 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Keys { uvec2 cp_keys[]; };
 layout(std430, binding = 1) readonly buffer Tiles { uint cp_tiles[]; };
 layout(std430, binding = 2) readonly buffer Cells { uint cp_cells[]; };
-layout(std430, binding = 3) readonly buffer Fine0 { vec4 cp_fine0[]; };
-layout(std430, binding = 4) readonly buffer Fine1 { vec4 cp_fine1[]; };
-layout(std430, binding = 5) readonly buffer Fine2 { vec4 cp_fine2[]; };
-layout(std430, binding = 6) readonly buffer Fine3 { vec4 cp_fine3[]; };
+layout(binding = 3) uniform samplerBuffer cp_fine0;
+layout(binding = 4) uniform samplerBuffer cp_fine1;
+layout(binding = 5) uniform samplerBuffer cp_fine2;
+layout(binding = 6) uniform samplerBuffer cp_fine3;
 layout(std430, binding = 7) readonly buffer Queries { vec4 queries[]; };
 layout(std430, binding = 8) writeonly buffer Results { vec4 results[]; };
 layout(std430, binding = 9) writeonly buffer Valid { uint valid_out[]; };

@@ -7,8 +7,8 @@
 // paper's Barnes-Hut mode) a node that does not hold the walker, is seen under size / distance < theta and whose
 // particles all interact with the walker (the AND of their feature masks) counts as its particles lumped at their
 // centre of mass with the node's smallest h.
-// Bindings: 0 nodes uvec4[]; 1-4 node moments vec4[] (box min + min h, box max, centre + count, AND mask); 5 order
-//           uint[n]; 6 particles vec4[n] (xyz, w = h); 7 features uint[n]; 8 feature_masks uvec2[]; 9 result vec4[n]
+// Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1-4 node moments samplerBuffer (box min + min h, box max,
+//           centre + count) and usamplerBuffer (AND mask); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h); 7 features uint[n]; 8 feature_masks uvec2[]; 9 result vec4[n]
 //           (gradient of E_i wrt p_i in xyz, E_i in w); 10 counts uint[n] (pairs evaluated; bit 31 set when the work
 //           budget ran out); 11 visits uint[n] (nodes visited).
 // Compiled three times: tree_walk (exact; theta unused), tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
@@ -27,13 +27,15 @@
 #include "pair_energy.glsl"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
-layout(std430, binding = 1) readonly buffer MomentsLo { vec4 m_lo[]; };
-layout(std430, binding = 2) readonly buffer MomentsHi { vec4 m_hi[]; };
-layout(std430, binding = 3) readonly buffer MomentsCom { vec4 m_com[]; };
-layout(std430, binding = 4) readonly buffer MomentsMask { vec4 m_mask[]; };
+// The vec4 data every walker fetches from scattered places are texel buffers: lavapipe gathers a texel for all lanes
+// at once, where it loads a storage buffer lane by lane and component by component (fields/cp_lookup_gpu.h).
+layout(binding = 0) uniform usamplerBuffer nodes;
+layout(binding = 1) uniform samplerBuffer m_lo;
+layout(binding = 2) uniform samplerBuffer m_hi;
+layout(binding = 3) uniform samplerBuffer m_com;
+layout(binding = 4) uniform usamplerBuffer m_mask;  // the mask's bits, read as integers
 layout(std430, binding = 5) readonly buffer Order { uint order[]; };
-layout(std430, binding = 6) readonly buffer Particles { vec4 particles[]; };
+layout(binding = 6) uniform samplerBuffer particles;
 layout(std430, binding = 7) readonly buffer Features { uint features[]; };
 layout(std430, binding = 8) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
 #ifdef NEIGHBOUR_LIST
@@ -53,7 +55,7 @@ void main() {
   const uint k = flat_group_id() * 64 + gl_LocalInvocationID.x;
   if (k >= pc.walkers) return;
   const uint i = order[k];
-  const vec4 pi4 = particles[i];
+  const vec4 pi4 = texelFetch(particles, int(i));
   const vec3 p = pi4.xyz;
   const float hi_ = pi4.w;
   const uvec2 mask = feature_masks[features[i]];
@@ -73,19 +75,19 @@ void main() {
     const uint id = stack[--sp];
     ++work;
     ++visited;
-    const vec3 lo = m_lo[id].xyz, up = m_hi[id].xyz;
+    const vec3 lo = texelFetch(m_lo, int(id)).xyz, up = texelFetch(m_hi, int(id)).xyz;
     const vec3 outside = max(max(lo - p, p - up), vec3(0.0));
     const float box_distance2 = dot(outside, outside);
     if (box_distance2 > cutoff * cutoff) continue;
 #ifdef BARNES_HUT
     if (box_distance2 > 0.0) {
-      const vec4 com = m_com[id];
+      const vec4 com = texelFetch(m_com, int(id));
       const vec3 extent = up - lo;
       const vec3 delta = p - com.xyz;
       const float r = length(delta);
-      const uvec2 node_mask = floatBitsToUint(m_mask[id].xy);
+      const uvec2 node_mask = texelFetch(m_mask, int(id)).xy;
       if (max(extent.x, max(extent.y, extent.z)) < pc.theta * r && (node_mask & mask) == mask) {
-        const float scale = SUPPORT * min(hi_, m_lo[id].w);
+        const float scale = SUPPORT * min(hi_, texelFetch(m_lo, int(id)).w);
         const float d = max(r / scale, 1e-3);
         if (d < 1.0) {
           pairs += uint(com.w);
@@ -98,7 +100,7 @@ void main() {
       }
     }
 #endif
-    const uvec4 node = nodes[id];
+    const uvec4 node = texelFetch(nodes, int(id));
     const uint children = node.w & 0xffu;
     if (children == 0) {
       for (uint q = node.x; q < node.x + node.y && work < WORK_BUDGET; ++q) {
@@ -107,7 +109,7 @@ void main() {
         if (j == i) continue;
         const uvec2 mj = feature_masks[features[j]];
         if ((mj & mask) != mask) continue;  // j's feature does not bound i's
-        const vec4 pj = particles[j];
+        const vec4 pj = texelFetch(particles, int(j));
         const vec3 delta = p - pj.xyz;
         const float r = length(delta);
 #ifdef NEIGHBOUR_LIST

@@ -71,7 +71,10 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
   tile_cells = gpu::Buffer<uint32_t>(ctx, cells, "embedding tile cells");
   table_mask = uint32_t(T.keys.size() - 1);
   const uint64_t block_bytes = uint64_t(E.sub * E.sub * E.sub) * sizeof(glm::vec4);
-  const uint64_t limit = max_chunk_bytes ? max_chunk_bytes : ctx.info().max_storage_buffer_range;
+  // A chunk is a buffer (within maxStorageBufferRange) bound as a texel buffer (within maxTexelBufferElements).
+  const uint64_t limit = max_chunk_bytes ? max_chunk_bytes
+                                         : std::min(ctx.info().max_storage_buffer_range,
+                                                    ctx.info().max_texel_buffer_elements * sizeof(glm::vec4));
   chunk_blocks = uint32_t(std::max<uint64_t>(1, limit / block_bytes));
   const size_t total_blocks = E.block_count();
   if (total_blocks > size_t(chunk_blocks) * kFineChunks)
@@ -79,7 +82,7 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
                      gpu::format_bytes(total_blocks * block_bytes) + "); " + ctx.info().name + " binds at most " +
                      std::to_string(kFineChunks) + " x " + gpu::format_bytes(uint64_t(chunk_blocks) * block_bytes) +
                      "; use fewer subcells (--subcells), a coarser volume, or a device with a larger "
-                     "maxStorageBufferRange");
+                     "maxStorageBufferRange and maxTexelBufferElements");
   chunks = uint32_t(std::max<size_t>(1, (total_blocks + chunk_blocks - 1) / chunk_blocks));
   const size_t per_block = size_t(E.sub * E.sub * E.sub);
   for (int c = 0; c < kFineChunks; ++c) {

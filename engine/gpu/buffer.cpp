@@ -32,7 +32,25 @@ void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
 
 }  // namespace
 
+const vk::raii::BufferView& detail::BufferStorage::texel_view(bool uint_texels) {
+  vk::raii::BufferView& view = uint_texels ? uint_view : float_view;
+  if (*view) return view;
+  const uint64_t texels = std::max<uint64_t>(bytes, 16) / 16;
+  const uint64_t limit = ctx->info().max_texel_buffer_elements;
+  if (texels > limit)
+    throw Error("buffer '" + label + "' bound as a texel buffer holds " + std::to_string(texels) +
+                " 16-byte texels, more than maxTexelBufferElements = " + std::to_string(limit) + " on " +
+                ctx->info().name + "; reduce the problem size or pick a device with larger limits (`cpmesh devices`)");
+  guarded("creating the texel view of buffer '" + label + "'", [&] {
+    const vk::Format format = uint_texels ? vk::Format::eR32G32B32A32Uint : vk::Format::eR32G32B32A32Sfloat;
+    view = vk::raii::BufferView(ctx->device(), vk::BufferViewCreateInfo({}, *buffer, format, 0, texels * 16));
+  });
+  return view;
+}
+
 detail::BufferStorage::~BufferStorage() {
+  float_view.clear();  // before the buffer goes back to the pool
+  uint_view.clear();
   if (!ctx || !allocated_bytes) return;
   // Back to the context for the next buffer of this size (the GPU is done with it: sequences hold their buffers
   // until their fence has signalled).
@@ -70,8 +88,9 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     // Vulkan forbids empty buffers; an empty Buffer still owns a small one so that it can be bound.
     const uint64_t alloc_bytes = std::max<uint64_t>(bytes, 16);
     s->buffer = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo({}, alloc_bytes,
-                                                                    U::eStorageBuffer | U::eTransferSrc |
-                                                                        U::eTransferDst | U::eIndirectBuffer));
+                                                                    U::eStorageBuffer | U::eUniformTexelBuffer |
+                                                                        U::eTransferSrc | U::eTransferDst |
+                                                                        U::eIndirectBuffer));
     const auto req = s->buffer.getMemoryRequirements();
     using M = vk::MemoryPropertyFlagBits;
     uint32_t type = 0;

@@ -26,6 +26,12 @@ struct BufferStorage {
   int use = 0;                   // MemoryUse, for recycling
   vk::raii::Buffer buffer = nullptr;
   vk::raii::DeviceMemory memory = nullptr;
+  // The buffer seen as a uniform texel buffer of RGBA32F texels (a shader's samplerBuffer) or RGBA32UI texels
+  // (usamplerBuffer), each made at its first such binding: lavapipe gathers texels for all lanes at once but loads
+  // storage buffers lane by lane and component by component, so read-only vec4 data that many lanes fetch at
+  // scattered places reads faster this way.
+  vk::raii::BufferView float_view = nullptr, uint_view = nullptr;
+  const vk::raii::BufferView& texel_view(bool uint_texels);
   ~BufferStorage();
 };
 }  // namespace detail

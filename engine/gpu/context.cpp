@@ -77,6 +77,7 @@ DeviceInfo describe(const vk::raii::PhysicalDevice& pd, uint32_t index) {
   const auto& drv = chain.get<vk::PhysicalDeviceDriverProperties>();
   d.driver = std::string(drv.driverName.data()) + " " + drv.driverInfo.data();
   d.max_storage_buffer_range = p.limits.maxStorageBufferRange;
+  d.max_texel_buffer_elements = p.limits.maxTexelBufferElements;
   d.max_shared_memory = p.limits.maxComputeSharedMemorySize;
   d.max_workgroup_invocations = p.limits.maxComputeWorkGroupInvocations;
   for (int i = 0; i < 3; ++i) d.max_workgroup_count[i] = p.limits.maxComputeWorkGroupCount[i];

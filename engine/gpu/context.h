@@ -31,6 +31,7 @@ struct DeviceInfo {
   bool usable = false;          // Vulkan >= 1.2 with a compute queue
   std::string unusable_reason;  // why not, when !usable
   uint64_t max_storage_buffer_range = 0;
+  uint64_t max_texel_buffer_elements = 0;
   uint64_t max_memory_allocation_size = 0;
   uint32_t max_shared_memory = 0;
   uint32_t max_workgroup_invocations = 0;

@@ -66,6 +66,7 @@ nlohmann::json device_json(const DeviceInfo& d) {
           {"usable", d.usable},
           {"unusable_reason", d.unusable_reason},
           {"max_storage_buffer_range", d.max_storage_buffer_range},
+          {"max_texel_buffer_elements", d.max_texel_buffer_elements},
           {"max_memory_allocation_size", d.max_memory_allocation_size},
           {"max_shared_memory", d.max_shared_memory},
           {"max_workgroup_invocations", d.max_workgroup_invocations},

@@ -13,13 +13,15 @@ namespace {
 
 // SPIR-V opcodes and enumerants used below (SPIR-V 1.5 specification, section 3).
 enum : uint32_t {
-  OpExecutionMode = 16, OpTypeInt = 21, OpTypeFloat = 22, OpTypeVector = 23, OpTypeMatrix = 24, OpTypeArray = 28,
+  OpExecutionMode = 16, OpTypeInt = 21, OpTypeFloat = 22, OpTypeVector = 23, OpTypeMatrix = 24, OpTypeImage = 25,
+  OpTypeSampledImage = 27, OpTypeArray = 28,
   OpTypeRuntimeArray = 29, OpTypeStruct = 30, OpTypePointer = 32, OpConstant = 43, OpSpecConstant = 50,
   OpVariable = 59, OpDecorate = 71, OpMemberDecorate = 72,
   ExecutionModeLocalSize = 17,
   DecorationSpecId = 1, DecorationArrayStride = 6, DecorationMatrixStride = 7, DecorationBinding = 33,
   DecorationDescriptorSet = 34, DecorationOffset = 35,
-  StorageClassUniform = 2, StorageClassPushConstant = 9, StorageClassStorageBuffer = 12,
+  StorageClassUniformConstant = 0, StorageClassUniform = 2, StorageClassPushConstant = 9, StorageClassStorageBuffer = 12,
+  DimBuffer = 5,
 };
 
 struct Type {
@@ -41,7 +43,7 @@ class Module {
           if (n >= 5 && w[1] == ExecutionModeLocalSize) std::copy(w + 2, w + 5, layout_.local_size);
           break;
         case OpTypeInt: case OpTypeFloat: case OpTypeVector: case OpTypeMatrix: case OpTypeArray:
-        case OpTypeRuntimeArray: case OpTypeStruct: case OpTypePointer:
+        case OpTypeRuntimeArray: case OpTypeStruct: case OpTypePointer: case OpTypeImage: case OpTypeSampledImage:
           types_[w[0]] = Type{op, std::vector<uint32_t>(w + 1, w + n)};
           break;
         case OpConstant:
@@ -70,18 +72,35 @@ class Module {
       if (v.storage == StorageClassPushConstant) {
         const Type& ptr = type(v.type_id);
         layout_.push_constant_bytes = size_of(ptr.operands.at(1));
-      } else if (v.storage == StorageClassStorageBuffer || v.storage == StorageClassUniform) {
+      } else if (v.storage == StorageClassStorageBuffer || v.storage == StorageClassUniform ||
+                 v.storage == StorageClassUniformConstant) {
         auto set = decorations_.find({v.id, DecorationDescriptorSet});
         auto binding = decorations_.find({v.id, DecorationBinding});
         if (binding == decorations_.end()) fail("a buffer variable has no binding decoration");
         if (set != decorations_.end() && set->second != 0) fail("descriptor set " + std::to_string(set->second) + " used; only set 0 is supported");
         if (v.storage == StorageClassUniform) fail("uniform buffers are not supported; use std430 storage buffers");
-        bindings.insert(binding->second);
+        if (v.storage == StorageClassUniformConstant) {
+          // Only a samplerBuffer or usamplerBuffer: OpTypeSampledImage of an OpTypeImage with Dim Buffer, sampled,
+          // of 32-bit floats or unsigned integers.
+          const Type& pointee = type(type(v.type_id).operands.at(1));
+          const Type* image = pointee.op == OpTypeSampledImage ? &type(pointee.operands.at(0)) : nullptr;
+          if (!image || image->op != OpTypeImage || image->operands.at(1) != DimBuffer || image->operands.at(5) != 1)
+            fail("binding " + std::to_string(binding->second) + ": the only image types supported are samplerBuffer "
+                 "and usamplerBuffer");
+          const Type& texel = type(image->operands.at(0));
+          const bool is_uint = texel.op == OpTypeInt && texel.operands.at(0) == 32 && texel.operands.at(1) == 0;
+          if (!is_uint && !(texel.op == OpTypeFloat && texel.operands.at(0) == 32))
+            fail("binding " + std::to_string(binding->second) + ": texel buffers hold 32-bit floats or unsigned integers");
+          if (binding->second >= 32) fail("a texel buffer at binding 32 or above");
+          layout_.texel_buffers |= 1u << binding->second;
+          if (is_uint) layout_.uint_texels |= 1u << binding->second;
+        }
+        if (!bindings.insert(binding->second).second) fail("two variables at binding " + std::to_string(binding->second));
       }
     }
-    layout_.storage_buffers = uint32_t(bindings.size());
+    layout_.bindings = uint32_t(bindings.size());
     if (!bindings.empty() && *bindings.rbegin() != bindings.size() - 1)
-      fail("storage buffer bindings must be 0.." + std::to_string(bindings.size() - 1));
+      fail("buffer bindings must be 0.." + std::to_string(bindings.size() - 1));
     layout_.spec_constants = uint32_t(spec_ids_.size());
     return layout_;
   }

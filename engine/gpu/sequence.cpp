@@ -1,6 +1,7 @@
 #include "gpu/sequence.h"
 
 #include <algorithm>
+#include <array>
 
 #include "gpu/submit.h"
 
@@ -33,9 +34,9 @@ const vk::raii::CommandBuffer& Sequence::recording() {
 void Sequence::bind(const Kernel& kernel, std::initializer_list<Binding> buffers, std::span<const std::byte> pc) {
   const auto& p = kernel.pipeline();
   const auto& L = p->layout;
-  if (buffers.size() != L.storage_buffers)
+  if (buffers.size() != L.bindings)
     throw Error("dispatch of '" + p->name + "' with " + std::to_string(buffers.size()) + " buffers; the shader binds " +
-                std::to_string(L.storage_buffers));
+                std::to_string(L.bindings));
   if (pc.size() != L.push_constant_bytes)
     throw Error("dispatch of '" + p->name + "' with " + std::to_string(pc.size()) +
                 " bytes of push constants; the shader's block is " + std::to_string(L.push_constant_bytes) + " bytes");
@@ -43,24 +44,34 @@ void Sequence::bind(const Kernel& kernel, std::initializer_list<Binding> buffers
   guarded("recording '" + p->name + "'", [&] {
     if (!buffers.size()) return;
     if (pools_.empty() || sets_in_pool_ == kSetsPerPool) {
-      const vk::DescriptorPoolSize size(vk::DescriptorType::eStorageBuffer, kSetsPerPool * 16);
-      pools_.emplace_back(ctx_->device(), vk::DescriptorPoolCreateInfo({}, kSetsPerPool, size));
+      const std::array<vk::DescriptorPoolSize, 2> sizes = {
+          vk::DescriptorPoolSize(vk::DescriptorType::eStorageBuffer, kSetsPerPool * 16),
+          vk::DescriptorPoolSize(vk::DescriptorType::eUniformTexelBuffer, kSetsPerPool * 16)};
+      pools_.emplace_back(ctx_->device(), vk::DescriptorPoolCreateInfo({}, kSetsPerPool, sizes));
       sets_in_pool_ = 0;
     }
-    if (L.storage_buffers > 16) throw Error("shader '" + p->name + "' binds more than 16 buffers");
+    if (L.bindings > 16) throw Error("shader '" + p->name + "' binds more than 16 buffers");
     const vk::DescriptorSetLayout set_layout = *p->set_layout;
     const vk::Device device = *ctx_->device();
     const vk::DescriptorSet set = device.allocateDescriptorSets(vk::DescriptorSetAllocateInfo(*pools_.back(), set_layout))[0];
     ++sets_in_pool_;
     std::vector<vk::DescriptorBufferInfo> infos;
+    std::vector<vk::BufferView> views;
     infos.reserve(buffers.size());
+    views.reserve(buffers.size());
     for (const auto& b : buffers) {
       infos.emplace_back(*b.storage->buffer, 0, VK_WHOLE_SIZE);
+      const uint32_t bit = 1u << (infos.size() - 1);
+      views.push_back(L.texel_buffers & bit ? *b.storage->texel_view(L.uint_texels & bit) : vk::BufferView());
       held_buffers_.push_back(b.storage);
     }
     std::vector<vk::WriteDescriptorSet> writes;
-    for (uint32_t i = 0; i < infos.size(); ++i)
-      writes.emplace_back(set, i, 0, 1, vk::DescriptorType::eStorageBuffer, nullptr, &infos[i]);
+    for (uint32_t i = 0; i < infos.size(); ++i) {
+      if (L.texel_buffers >> i & 1)
+        writes.emplace_back(set, i, 0, 1, vk::DescriptorType::eUniformTexelBuffer, nullptr, nullptr, &views[i]);
+      else
+        writes.emplace_back(set, i, 0, 1, vk::DescriptorType::eStorageBuffer, nullptr, &infos[i]);
+    }
     device.updateDescriptorSets(writes, {});
     cb.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *p->pipeline_layout, 0, set, {});
   });

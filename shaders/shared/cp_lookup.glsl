@@ -1,8 +1,8 @@
 // Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
 // Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader:
 //   buffers  cp_keys (uvec2[], the tile hash table's keys: low, high word), cp_tiles (uint[], slot -> tile record),
-//            cp_cells (uint[], 64 per tile record: block or CP_EMPTY), cp_fine0..3 (vec4[], the fine points split in
-//            chunks of CP_CHUNK_BLOCKS blocks): fields::GpuEmbedding, fields::EmbeddingTiles
+//            cp_cells (uint[], 64 per tile record: block or CP_EMPTY), cp_fine0..3 (samplerBuffer, RGBA32F texels:
+//            the fine points split in chunks of CP_CHUNK_BLOCKS blocks): fields::GpuEmbedding, fields::EmbeddingTiles
 //   and the values CP_DIMS (ivec3), CP_SPACING (vec3), CP_MASK (uint, table size - 1), CP_CHUNK_BLOCKS (uint).
 // Specialization constants 0 and 1 (fields::GpuEmbedding::spec_constants): the fine points per voxel and axis, and
 // how many fine buffers hold blocks; an embedding in one buffer reads its fine points with no chunk arithmetic.
@@ -60,14 +60,14 @@ vec4 cp_fine_point(uint block, uint index_in_block) {
   const uint per_block = uint(CP_SUB * CP_SUB * CP_SUB);
   vec4 v;
   if (CP_FINE_CHUNKS == 1u) {
-    v = cp_fine0[block * per_block + index_in_block];
+    v = texelFetch(cp_fine0, int(block * per_block + index_in_block));
   } else {
     const uint chunk = block / CP_CHUNK_BLOCKS;
-    const uint i = (block - chunk * CP_CHUNK_BLOCKS) * per_block + index_in_block;
-    if (chunk == 0) v = cp_fine0[i];
-    else if (chunk == 1) v = cp_fine1[i];
-    else if (chunk == 2) v = cp_fine2[i];
-    else v = cp_fine3[i];
+    const int i = int((block - chunk * CP_CHUNK_BLOCKS) * per_block + index_in_block);
+    if (chunk == 0) v = texelFetch(cp_fine0, i);
+    else if (chunk == 1) v = texelFetch(cp_fine1, i);
+    else if (chunk == 2) v = texelFetch(cp_fine2, i);
+    else v = texelFetch(cp_fine3, i);
   }
   return v;
 }

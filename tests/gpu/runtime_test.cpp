@@ -90,16 +90,20 @@ TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted; released buffers are 
 
 TEST_CASE("reflection reads bindings, push constants and workgroup size from SPIR-V") {
   const auto scan = gpu::reflect(shaders::scan_blocks);
-  CHECK(scan.storage_buffers == 3);
+  CHECK(scan.bindings == 3);
   CHECK(scan.push_constant_bytes == 4);
   CHECK(scan.local_size[0] == 256);
   CHECK(scan.spec_constants == 1);
   const auto scatter = gpu::reflect(shaders::radix_scatter_u64);
-  CHECK(scatter.storage_buffers == 5);
+  CHECK(scatter.bindings == 5);
   CHECK(scatter.push_constant_bytes == 16);
   const auto reduce = gpu::reflect(shaders::reduce_f32);
   CHECK(reduce.push_constant_bytes == 8);
-  CHECK(reduce.storage_buffers == 2);
+  CHECK(reduce.bindings == 2);
+  CHECK(reduce.texel_buffers == 0);
+  const auto lookup = gpu::reflect(shaders::cp_lookup);  // bindings 3-6: samplerBuffer
+  CHECK(lookup.bindings == 10);
+  CHECK(lookup.texel_buffers == 0b1111000u);
 
   const uint32_t garbage[6] = {0xdeadbeef, 0, 0, 0, 0, 0};
   CHECK_THROWS_WITH_AS(gpu::reflect(ShaderCode{"garbage", garbage, 6}), doctest::Contains("garbage"), gpu::Error);
