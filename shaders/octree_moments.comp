@@ -4,8 +4,8 @@
 // approximation of the tree walk may only lump a node whose every particle interacts with the walker); leaves from
 // their particles, internal nodes from their (at most 8) children.
 // Run from level 21 up to the root.
-// Bindings: 0 nodes uvec4[]; 1 level_info uvec2[22]; 2 order uint[n] (Morton order -> particle); 3 particles vec4[]
-//           (xyz position, w sizing h); 4-7 the moments, one vec4 per node in each: lo (box min, min h), hi (box max,
+// Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1 level_info uvec2[22]; 2 order uint[n] (Morton order ->
+//           particle); 3 particles samplerBuffer (xyz position, w sizing h); 4-7 the moments, one vec4 per node in each: lo (box min, min h), hi (box max,
 //           0), com (centre, count), and_mask (AND mask low, high word as float bits, 0, 0) (four buffers so that each
 //           stays within maxStorageBufferRange for a million particles); 8 features uint[n]; 9 feature_masks uvec2[].
 // Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
@@ -15,10 +15,10 @@
 #include "common.glsl"
 
 layout(local_size_x = 256) in;
-layout(std430, binding = 0) readonly buffer Nodes { uvec4 nodes[]; };
+layout(binding = 0) uniform usamplerBuffer nodes;  // texel buffers: lavapipe gathers them (tree_walk.comp)
 layout(std430, binding = 1) readonly buffer LevelInfo { uvec2 level_info[]; };
 layout(std430, binding = 2) readonly buffer Order { uint order[]; };
-layout(std430, binding = 3) readonly buffer Particles { vec4 particles[]; };
+layout(binding = 3) uniform samplerBuffer particles;
 layout(std430, binding = 4) buffer MomentsLo { vec4 m_lo[]; };
 layout(std430, binding = 5) buffer MomentsHi { vec4 m_hi[]; };
 layout(std430, binding = 6) buffer MomentsCom { vec4 m_com[]; };
@@ -34,7 +34,7 @@ void main() {
   const uvec2 info = level_info[pc.level];
   if (g >= info.y) return;
   const uint id = info.x + g;
-  const uvec4 node = nodes[id];
+  const uvec4 node = texelFetch(nodes, int(id));
   const uint children = node.w & 0xffu;
   vec3 lo = vec3(3.4e38), hi = vec3(-3.4e38), sum = vec3(0.0);
   float min_h = 3.4e38;
@@ -45,7 +45,7 @@ void main() {
     for (uint k = 0; k < m; ++k) {
       const uint particle = order[node.x + k];
       and_mask &= feature_masks[features[particle]];
-      const vec4 p = particles[particle];
+      const vec4 p = texelFetch(particles, int(particle));
       lo = min(lo, p.xyz);
       hi = max(hi, p.xyz);
       min_h = min(min_h, p.w);
