@@ -5,7 +5,7 @@
 // (interfaces) or all but its tangential part (triple curves) to first order: the closest point method's tangent
 // projection. Quadruple points never move. A particle whose moved position leaves its feature's band stays put and
 // is counted in `lost`. The sizing at the new position (the lookup's w) becomes the particle's h.
-// Bindings: 0-6 cp_keys, cp_tiles, cp_cells, cp_fine0..3 (fields::GpuEmbedding); 7 particles vec4[n] (xyz, h;
+// Bindings: 0-6 cp_keys, cp_tiles, cp_cells, cp_fine0..3 (texel buffers: fields::GpuEmbedding); 7 particles vec4[n] (xyz, h;
 //           updated); 8 features uint[n]; 9 feature_kinds uint[] (0 point, 1 curve, 2 interface); 10 walk result
 //           vec4[n] (gradient, E); 11 energy float[n] (E_i copied for the reduction); 12 lost uint[1] (atomic counter).
 // Push: embedding geometry, n, alpha, max_move. Dispatch: n threads, 64 per workgroup. Reference: ref::advect.
@@ -13,9 +13,9 @@
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Keys { uvec2 cp_keys[]; };
-layout(std430, binding = 1) readonly buffer Tiles { uint cp_tiles[]; };
-layout(std430, binding = 2) readonly buffer Cells { uint cp_cells[]; };
+layout(binding = 0) uniform usamplerBuffer cp_keys;   // two keys per texel
+layout(binding = 1) uniform usamplerBuffer cp_tiles;  // four records per texel
+layout(binding = 2) uniform usamplerBuffer cp_cells;  // four cells per texel
 layout(binding = 3) uniform samplerBuffer cp_fine0;
 layout(binding = 4) uniform samplerBuffer cp_fine1;
 layout(binding = 5) uniform samplerBuffer cp_fine2;

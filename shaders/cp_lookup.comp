@@ -1,18 +1,18 @@
 #version 450
 // Closest point lookup for a batch of points (fields::CpLookup): WENO4 interpolation on the closest point embedding,
 // no iterative search. Each query is a point in local coordinates (xyz) and its feature (w, as uint bits).
-// Bindings: 0 cp_keys uvec2[], 1 cp_tiles uint[], 2 cp_cells uint[] (fields::EmbeddingTiles); 3-6 cp_fine0..3
-//           samplerBuffer (the fine points in four chunks of chunk_blocks blocks, RGBA32F texels); 7 queries vec4[n]; 8 results vec4[n]
-//           (closest point xyz, sizing w); 9 valid uint[n] (1, or 0 when the point left its feature's band).
+// Bindings: 0-2 cp_keys, cp_tiles, cp_cells usamplerBuffer (fields::EmbeddingTiles); 3-6 cp_fine0..3
+//           samplerBuffer (the fine points in four chunks of chunk_blocks blocks); 7 queries vec4[n]; 8 results
+//           vec4[n] (closest point xyz, sizing w); 9 valid uint[n] (1, or 0 when the point left its feature's band).
 // Push: dims + sub, spacing, n, table mask, chunk_blocks. Dispatch: n threads, 64 per workgroup.
 // Reference: ref::cp_lookup.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Keys { uvec2 cp_keys[]; };
-layout(std430, binding = 1) readonly buffer Tiles { uint cp_tiles[]; };
-layout(std430, binding = 2) readonly buffer Cells { uint cp_cells[]; };
+layout(binding = 0) uniform usamplerBuffer cp_keys;   // two keys per texel
+layout(binding = 1) uniform usamplerBuffer cp_tiles;  // four records per texel
+layout(binding = 2) uniform usamplerBuffer cp_cells;  // four cells per texel
 layout(binding = 3) uniform samplerBuffer cp_fine0;
 layout(binding = 4) uniform samplerBuffer cp_fine1;
 layout(binding = 5) uniform samplerBuffer cp_fine2;

@@ -1,8 +1,10 @@
 // Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
-// Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader:
-//   buffers  cp_keys (uvec2[], the tile hash table's keys: low, high word), cp_tiles (uint[], slot -> tile record),
-//            cp_cells (uint[], 64 per tile record: block or CP_EMPTY), cp_fine0..3 (samplerBuffer, RGBA32F texels:
-//            the fine points split in chunks of CP_CHUNK_BLOCKS blocks): fields::GpuEmbedding, fields::EmbeddingTiles
+// Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader, as texel
+// buffers (lavapipe gathers texels for all lanes; it loads storage buffers lane by lane, see fields/cp_lookup_gpu.h):
+//   cp_keys (usamplerBuffer: the tile hash table's keys, two per texel as low, high word), cp_tiles (usamplerBuffer:
+//   slot -> tile record, four per texel), cp_cells (usamplerBuffer: 64 per tile record, block or CP_EMPTY, four per
+//   texel), cp_fine0..3 (samplerBuffer: the fine points, split in chunks of CP_CHUNK_BLOCKS blocks):
+//   fields::GpuEmbedding, fields::EmbeddingTiles
 //   and the values CP_DIMS (ivec3), CP_SPACING (vec3), CP_MASK (uint, table size - 1), CP_CHUNK_BLOCKS (uint).
 // Specialization constants 0 and 1 (fields::GpuEmbedding::spec_constants): the fine points per voxel and axis, and
 // how many fine buffers hold blocks; an embedding in one buffer reads its fine points with no chunk arithmetic.
@@ -36,8 +38,9 @@ int cp_find_tile(uint tile, uint feature) {
   const uvec2 key = uvec2((tile << 16) | feature, tile >> 16);
   uint slot = cp_hash(key) & CP_MASK;
   for (uint probe = 0; probe < CP_MAX_PROBES; ++probe) {
-    const uvec2 k = cp_keys[slot];
-    if (k == key) return int(cp_tiles[slot]);
+    const uvec4 pair = texelFetch(cp_keys, int(slot >> 1));
+    const uvec2 k = (slot & 1u) == 0u ? pair.xy : pair.zw;
+    if (k == key) return int(texelFetch(cp_tiles, int(slot >> 2))[slot & 3u]);
     if (k.x == CP_EMPTY && k.y == CP_EMPTY) return -1;
     slot = (slot + 1) & CP_MASK;
   }
@@ -107,8 +110,9 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
       for (int x = 0; x <= c1.x - c0.x; ++x) {
         const ivec3 cell = c0 + ivec3(x, y, z);
         const ivec3 t = (cell >> CP_TILE_SHIFT) - t0, l = cell & ((1 << CP_TILE_SHIFT) - 1);
-        const uint block = cp_cells[tile_base[(t.z * 2 + t.y) * 2 + t.x] +
-                                    uint((((l.z << CP_TILE_SHIFT) | l.y) << CP_TILE_SHIFT) | l.x)];
+        const uint index = tile_base[(t.z * 2 + t.y) * 2 + t.x] +
+                           uint((((l.z << CP_TILE_SHIFT) | l.y) << CP_TILE_SHIFT) | l.x);
+        const uint block = texelFetch(cp_cells, int(index >> 2))[index & 3u];
         if (block == CP_EMPTY) return vec4(local_pos, 0.0);
         cell_block[(z * 4 + y) * 4 + x] = block;
       }

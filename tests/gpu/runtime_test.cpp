@@ -101,9 +101,10 @@ TEST_CASE("reflection reads bindings, push constants and workgroup size from SPI
   CHECK(reduce.push_constant_bytes == 8);
   CHECK(reduce.bindings == 2);
   CHECK(reduce.texel_buffers == 0);
-  const auto lookup = gpu::reflect(shaders::cp_lookup);  // bindings 3-6: samplerBuffer
+  const auto lookup = gpu::reflect(shaders::cp_lookup);  // bindings 0-2 usamplerBuffer, 3-6 samplerBuffer
   CHECK(lookup.bindings == 10);
-  CHECK(lookup.texel_buffers == 0b1111000u);
+  CHECK(lookup.texel_buffers == 0b1111111u);
+  CHECK(lookup.uint_texels == 0b0000111u);
 
   const uint32_t garbage[6] = {0xdeadbeef, 0, 0, 0, 0, 0};
   CHECK_THROWS_WITH_AS(gpu::reflect(ShaderCode{"garbage", garbage, 6}), doctest::Contains("garbage"), gpu::Error);
