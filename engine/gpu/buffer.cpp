@@ -30,12 +30,20 @@ void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
   if (largest_heap && bytes > largest_heap) fail("the device-local memory heap size", largest_heap);
 }
 
+// The VkBuffer's size for `bytes`: at least 16 (Vulkan forbids empty buffers; an empty Buffer still owns a small one
+// so that it can be bound), in whole 16-byte texels so that a texel view covers every byte, unless that would pass
+// maxStorageBufferRange (then the last partial texel is not in the view).
+uint64_t vk_buffer_size(const Context& ctx, uint64_t bytes) {
+  const uint64_t whole = (bytes + 15) / 16 * 16;
+  return std::max<uint64_t>(whole <= ctx.info().max_storage_buffer_range ? whole : bytes, 16);
+}
+
 }  // namespace
 
 const vk::raii::BufferView& detail::BufferStorage::texel_view(bool uint_texels) {
   vk::raii::BufferView& view = uint_texels ? uint_view : float_view;
   if (*view) return view;
-  const uint64_t texels = std::max<uint64_t>(bytes, 16) / 16;
+  const uint64_t texels = vk_buffer_size(*ctx, bytes) / 16;
   const uint64_t limit = ctx->info().max_texel_buffer_elements;
   if (texels > limit)
     throw Error("buffer '" + label + "' bound as a texel buffer holds " + std::to_string(texels) +
@@ -85,8 +93,7 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
   }
   guarded("creating buffer '" + s->label + "' of " + std::to_string(bytes) + " bytes", [&] {
     using U = vk::BufferUsageFlagBits;
-    // Vulkan forbids empty buffers; an empty Buffer still owns a small one so that it can be bound.
-    const uint64_t alloc_bytes = std::max<uint64_t>(bytes, 16);
+    const uint64_t alloc_bytes = vk_buffer_size(ctx, bytes);
     s->buffer = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo({}, alloc_bytes,
                                                                     U::eStorageBuffer | U::eUniformTexelBuffer |
                                                                         U::eTransferSrc | U::eTransferDst |
