@@ -38,7 +38,8 @@ std::string format_device(const DeviceInfo& d, bool chosen) {
                 chosen ? "*" : " ", d.index, d.name.c_str(), d.type.c_str(), format_version(d.api_version).c_str(),
                 d.usable ? (chosen ? "  [selected]" : "") : ("  [unusable: " + d.unusable_reason + "]").c_str(),
                 d.driver.c_str(), format_bytes(d.max_storage_buffer_range).c_str(),
-                (unsigned long long)d.max_texel_buffer_elements, format_bytes(d.max_memory_allocation_size).c_str(), format_bytes(d.max_shared_memory).c_str(),
+                (unsigned long long)d.max_texel_buffer_elements, format_bytes(d.max_memory_allocation_size).c_str(),
+                format_bytes(d.max_shared_memory).c_str(),
                 d.max_workgroup_invocations, d.max_workgroup_count[0], d.max_workgroup_count[1],
                 d.max_workgroup_count[2], d.subgroup_size, yes(d.float_atomic_add_buffer),
                 yes(d.float_atomic_add_shared), yes(d.shader_int64), yes(d.shader_float64), yes(d.timestamps));

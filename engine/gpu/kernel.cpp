@@ -19,9 +19,7 @@ Kernel::Kernel(Context& ctx, const ShaderCode& code, std::vector<uint32_t> spec_
     guarded("creating the pipeline of shader '" + p->name + "'", [&] {
       std::vector<vk::DescriptorSetLayoutBinding> bindings;
       for (uint32_t b = 0; b < L.bindings; ++b)
-        bindings.emplace_back(b, L.texel_buffers >> b & 1 ? vk::DescriptorType::eUniformTexelBuffer
-                                                          : vk::DescriptorType::eStorageBuffer,
-                              1, vk::ShaderStageFlagBits::eCompute);
+        bindings.emplace_back(b, descriptor_type(L, b), 1, vk::ShaderStageFlagBits::eCompute);
       p->set_layout = vk::raii::DescriptorSetLayout(ctx.device(), vk::DescriptorSetLayoutCreateInfo({}, bindings));
       const vk::PushConstantRange range(vk::ShaderStageFlagBits::eCompute, 0, L.push_constant_bytes);
       const vk::DescriptorSetLayout set_layout = *p->set_layout;

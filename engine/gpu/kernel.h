@@ -1,5 +1,5 @@
 #pragma once
-// A kernel is one compute shader with its pipeline. Bindings (storage buffers 0..n-1 in set 0), the push-constant size
+// A kernel is one compute shader with its pipeline. Bindings (storage or texel buffers 0..n-1 in set 0), the push-constant size
 // and the workgroup size come from the SPIR-V itself (gpu/reflect.h), so adding a kernel takes a registration in
 // shaders/CMakeLists.txt, a push-constant struct and one line here:
 //     gpu::Kernel morton(ctx, shaders::morton_codes);
@@ -13,6 +13,13 @@
 #include "gpu/reflect.h"
 
 namespace cpmesh::gpu {
+
+// How binding b of a shader is bound: a uniform texel buffer where reflection found a (u)samplerBuffer, else a
+// storage buffer. The pipeline layout and Sequence's descriptor writes both ask this.
+inline vk::DescriptorType descriptor_type(const ShaderLayout& layout, uint32_t binding) {
+  return layout.texel_buffers >> binding & 1 ? vk::DescriptorType::eUniformTexelBuffer
+                                             : vk::DescriptorType::eStorageBuffer;
+}
 
 class Kernel {
  public:

@@ -1,8 +1,8 @@
 #pragma once
 // Minimal SPIR-V reflection for compute shaders: what a Kernel needs to build its pipeline layout without hand-written
 // descriptions. Supports the shapes our shaders use: storage buffers and uniform texel buffers (samplerBuffer read
-// as RGBA32F texels, usamplerBuffer as RGBA32UI) in set 0 at bindings 0..n-1, one push-constant block of scalars, vectors, matrices, arrays and nested
-// structs, and a literal local size.
+// as RGBA32F texels, usamplerBuffer as RGBA32UI) in set 0 at bindings 0..n-1, one push-constant block of scalars,
+// vectors, matrices, arrays and nested structs, and a literal local size.
 #include <cstdint>
 #include <string>
 

@@ -55,22 +55,21 @@ void Sequence::bind(const Kernel& kernel, std::initializer_list<Binding> buffers
     const vk::Device device = *ctx_->device();
     const vk::DescriptorSet set = device.allocateDescriptorSets(vk::DescriptorSetAllocateInfo(*pools_.back(), set_layout))[0];
     ++sets_in_pool_;
+    // The writes point into infos and views: both reserved up front, so they never move.
     std::vector<vk::DescriptorBufferInfo> infos;
     std::vector<vk::BufferView> views;
+    std::vector<vk::WriteDescriptorSet> writes;
     infos.reserve(buffers.size());
     views.reserve(buffers.size());
     for (const auto& b : buffers) {
-      infos.emplace_back(*b.storage->buffer, 0, VK_WHOLE_SIZE);
-      const uint32_t bit = 1u << (infos.size() - 1);
-      views.push_back(L.texel_buffers & bit ? *b.storage->texel_view(L.uint_texels & bit) : vk::BufferView());
-      held_buffers_.push_back(b.storage);
-    }
-    std::vector<vk::WriteDescriptorSet> writes;
-    for (uint32_t i = 0; i < infos.size(); ++i) {
-      if (L.texel_buffers >> i & 1)
-        writes.emplace_back(set, i, 0, 1, vk::DescriptorType::eUniformTexelBuffer, nullptr, nullptr, &views[i]);
+      const uint32_t i = uint32_t(writes.size());
+      const vk::DescriptorType type = descriptor_type(L, i);
+      if (type == vk::DescriptorType::eUniformTexelBuffer)
+        writes.emplace_back(set, i, 0, 1, type, nullptr, nullptr,
+                            &views.emplace_back(*b.storage->texel_view(L.uint_texels >> i & 1)));
       else
-        writes.emplace_back(set, i, 0, 1, vk::DescriptorType::eStorageBuffer, nullptr, &infos[i]);
+        writes.emplace_back(set, i, 0, 1, type, nullptr, &infos.emplace_back(*b.storage->buffer, 0, VK_WHOLE_SIZE));
+      held_buffers_.push_back(b.storage);
     }
     device.updateDescriptorSets(writes, {});
     cb.bindDescriptorSets(vk::PipelineBindPoint::eCompute, *p->pipeline_layout, 0, set, {});

@@ -48,10 +48,11 @@ struct AdvectionOptions {
   // 4 steps walk the octree instead, 8 the next time it happens in a row, up to 32, and the lists are tried again.
   // A list buffer longer than the device allows (maxStorageBufferRange) or than kMaxListEntries per particle turns
   // the lists off for that system (uses_lists() false): it walks the octree every step instead.
-  // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding): 91 ms a step
-  // walking the octree, 66 / 64 / 63 ms with skins 0.3 / 0.5 / 0.8 (13 / 9 / 8 builds, 41 / 54 / 78 entries per
-  // particle); identical energies. The whole advection (three rounds, 50 steps): 5.5-5.6 -> 4.7-4.9 s; 64^3 1.07-1.13
-  // -> 0.93-0.96 s.
+  // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding), before the
+  // texel buffers (which halved walks and steps alike): 91 ms a step walking the octree, 66 / 64 / 63 ms with skins
+  // 0.3 / 0.5 / 0.8 (13 / 9 / 8 builds, 41 / 54 / 78 entries per particle); identical energies. The whole advection
+  // (three rounds, 50 steps): 5.5-5.6 -> 4.7-4.9 s; 64^3 1.07-1.13 -> 0.93-0.96 s. With the texel buffers (two
+  // rounds, 40 steps): 2.27-2.35 s walking, 1.96-1.99 s with lists.
   float neighbour_skin = 0.5f;
   float neighbour_grading = 1.0f;  // g above: the sizing field's grading (SizingOptions::grading, default 0.5) or more
   float drift_limit() const {

@@ -579,9 +579,10 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
       const double net = std::fabs(double(rep.added) - double(rep.deleted));
       steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
       // A negligible change (a few holes filled) is steady at once: the next run relaxes it and ends the rounds.
-      if (double(rep.added) + double(rep.deleted) <= options.negligible_share * double(n)) steady_rounds = 2;
+      const double changed = double(rep.added) + double(rep.deleted);
+      if (changed <= options.negligible_share * double(n)) steady_rounds = 2;
       // The next run's length at least: a small change settles locally (population.h).
-      const bool small = double(rep.added) + double(rep.deleted) <= options.small_change_share * double(n);
+      const bool small = changed <= options.small_change_share * double(n);
       adv.min_iterations = small ? std::min(options.min_iterations_per_round, options.min_iterations_after_small_change)
                                  : options.min_iterations_per_round;
     }
