@@ -526,13 +526,34 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
 
 namespace {
 
+// Voxels from a feature within which every voxel's block must exist: the lookup band plus a WENO4 stencil's reach
+// (2 fine steps beyond the query per axis, and a cell's fine points lie up to sub - 1 fine steps from its corner; both
+// along a diagonal at worst). The indicator fields must be stored deeper than this (build_embedding, step 3).
+double stencil_reach(const EmbeddingOptions& options, int sub) {
+  return options.band + std::sqrt(3.0) * double(sub + 1) / sub;
+}
+constexpr double kReachShareOfBand = 0.95;
+
+}  // namespace
+
+int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels) {
+  if (options.sub > 0) return options.sub;
+  return size_floor_voxels >= 1.0 ? 1 : 2;
+}
+
+double embedding_indicator_band(const EmbeddingOptions& options, int sub) {
+  return std::max(IndicatorOptions::kDefaultBand, std::ceil(2.0 * stencil_reach(options, sub) / kReachShareOfBand) / 2.0);
+}
+
+namespace {
+
 // The embedding of every feature, or of the triple curves and quadruple points alone (curves_only: what the curve
 // smoothing measures). owner (optional) receives, per fine point, the feature its closest point ended on.
 ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingOptions& options, bool curves_only,
                                       std::vector<uint32_t>* owner_out) {
   ClosestPointEmbedding E;
   E.grid = F.grid;
-  E.sub = options.sub;
+  E.sub = embedding_subcells(options);
   const Grid& grid = F.grid;
   const int M = int(F.material_count());
   const double h = grid.min_spacing();
@@ -603,15 +624,14 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   }
 
   // 3. Coarse cells: a voxel belongs to a feature's band when every material of the feature is within
-  //    band + stencil reach of it (f_m > -reach), so WENO4 stencils around any point within `band` are complete:
-  //    a stencil reaches 2 fine steps beyond the query per axis, and a cell's fine points lie up to sub - 1 fine
-  //    steps from its centre; both along a diagonal at worst.
+  //    band + stencil reach of it (f_m > -reach, stencil_reach), so WENO4 stencils around any point within `band`
+  //    are complete.
   //    And when the feature was found (step 1) within 2 reach + 1 voxel of it. A point within reach of every
   //    material of a feature lies that close to where they meet, unless another material separates them: across a
   //    thin layer (the CSF between skull and brain) every voxel is within reach of both sides, and where the sides
   //    touch somewhere else the band of their interface and curves would fill the whole layer, with Newton failing
   //    at every fine point there (no such interface nearby), 14 tries of 30 steps each.
-  const double reach = options.band * h + std::sqrt(3.0) * double(options.sub + 1) / options.sub * h;
+  const double reach = stencil_reach(options, E.sub) * h;
   // Voxels i and i + d lie at most floor((d + kBin - 1) / kBin) bins apart.
   const int near_bins = int(std::ceil((2.0 * reach / h + 1.0 + kBin - 1) / kBin));
   std::vector<std::vector<uint8_t>> near_found(E.features.size());
@@ -632,7 +652,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
     }
     near_found[f] = std::move(a);
   });
-  if (reach >= 0.95 * F.band)
+  if (reach >= kReachShareOfBand * F.band)
     throw std::invalid_argument("closest point embedding: band " + std::to_string(options.band) + " voxels plus the " +
                                 "WENO4 stencil reach needs indicator fields stored " + std::to_string(reach / h) +
                                 " voxels deep, but their band is " + std::to_string(F.band / h) +
@@ -673,7 +693,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   //    no true triple curve) the particles seeded on them sit in the thin layers and keep their two sides apart.
   //    Dropping the blocks (or giving up early there, which moves the failed points) left 194-447 wrong faces
   //    instead of 33 and made 2-4 interfaces non-manifold: the thin layers' meshing must be fixed before this can.
-  const int sub = options.sub, per_block = sub * sub * sub;
+  const int sub = E.sub, per_block = sub * sub * sub;
   E.fine.resize(cells.size() * size_t(per_block));
   std::vector<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
   std::vector<uint8_t> landed_in(cells.size(), 0);  // per block: some fine point landed

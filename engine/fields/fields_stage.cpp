@@ -4,7 +4,15 @@
 
 namespace cpmesh::fields {
 
-FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const FieldsOptions& options) {
+FieldsOptions resolve_fields_options(FieldsOptions options, double voxel) {
+  const double floor_voxels = options.sizing.h_min > 0 ? options.sizing.h_min / voxel : 0.0;  // 0: a quarter voxel
+  options.embedding.sub = embedding_subcells(options.embedding, floor_voxels);
+  if (options.indicator.band <= 0) options.indicator.band = embedding_indicator_band(options.embedding, options.embedding.sub);
+  return options;
+}
+
+FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const FieldsOptions& given) {
+  const FieldsOptions options = resolve_fields_options(given, grid.min_spacing());
   using clock = std::chrono::steady_clock;
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   FieldsResult r;

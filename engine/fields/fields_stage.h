@@ -25,6 +25,12 @@ struct FieldsResult {
   FieldsReport report;
 };
 
+// The options with their automatic choices made, for a grid whose smallest spacing is `voxel` (physical): the
+// embedding's subcells when 0 (embedding_subcells, from the sizing floor h_min) and the indicator band when 0 (what
+// that embedding needs, embedding_indicator_band). build_fields applies it; a closed volume's padding needs the band
+// before (face_padding).
+FieldsOptions resolve_fields_options(FieldsOptions options, double voxel);
+
 FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const FieldsOptions& options = {});
 
 }  // namespace cpmesh::fields

@@ -312,7 +312,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   IndicatorFields out;
   out.grid = grid;
   const double h = grid.min_spacing();
-  out.band = options.band * h;
+  const double band_voxels = options.band > 0 ? options.band : IndicatorOptions::kDefaultBand;
+  out.band = band_voxels * h;
   const float band = float(out.band);
 
   // Labels present, their voxel counts and bounding boxes.
@@ -349,7 +350,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   const double fade = options.junction_fade * h;
   const double sigma_phys = options.smoothing_sigma * h;
   const double tighten_r = options.tighten_radius * h;
-  const int margin = int(std::ceil(std::max(options.band + 3.0 * options.smoothing_sigma, 2.0 * options.tighten_radius))) + 2;
+  const int margin = int(std::ceil(std::max(band_voxels + 3.0 * options.smoothing_sigma, 2.0 * options.tighten_radius))) + 2;
   auto crop_of = [&](const Box& box) {
     return Box{glm::max(box.lo - margin, glm::ivec3(0)), glm::min(box.hi + margin, grid.dims - 1)};
   };

@@ -40,9 +40,11 @@
 namespace cpmesh::fields {
 
 struct IndicatorOptions {
+  static constexpr double kDefaultBand = 4.0;  // voxels: the band when `band` is 0 and nothing asks for more
   double smoothing_sigma = 1.0;  // Gaussian sigma, in voxels of the smallest spacing
   int smoothing_iterations = 2;  // smooth + constrain rounds
-  double band = 4.0;             // narrow-band half-width, in voxels of the smallest spacing
+  double band = 0;               // narrow-band half-width, in voxels of the smallest spacing (0: 4, or what
+                                 // build_fields' closest point embedding needs: embedding_indicator_band)
   double junction_fade = 3.0;    // voxels: this close to where three or more labels meet, the smoothing turns into
                                  // twicing (below) to keep triple curves in place (0: plain smoothing everywhere)
   double junction_sigma = 0.7;   // voxels: sigma of the twiced Gaussian used at junctions (0: plain smoothing there)

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "fields/grid.h"
-#include "fields/indicator_fields.h"
+#include "fields/fields_stage.h"
 #include "io/volume.h"
 
 namespace cpmesh::fields {
@@ -19,7 +19,11 @@ inline Grid grid_of(const io::VolumeGeometry& v) {
 // smallest spacing (rounded up per axis) of label 0 on every side, origin moved so physical positions stay; or the
 // volume unchanged when only 0 lies on its faces.
 io::LabelVolume close_at_faces(io::LabelVolume volume, double width);  // by value: a closed volume is moved through
-// The padding that keeps a cap's indicator band and smoothing inside the padded grid, in voxels.
-inline double face_padding(const IndicatorOptions& o) { return std::ceil(o.band + 3 * o.smoothing_sigma) + 1; }
+// The padding that keeps a cap's indicator band and smoothing inside the padded grid, in voxels, for the fields
+// build_fields makes of `v` with these options.
+inline double face_padding(const FieldsOptions& options, const io::VolumeGeometry& v) {
+  const IndicatorOptions o = resolve_fields_options(options, grid_of(v).min_spacing()).indicator;
+  return std::ceil(o.band + 3 * o.smoothing_sigma) + 1;
+}
 
 }  // namespace cpmesh::fields

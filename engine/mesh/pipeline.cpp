@@ -49,7 +49,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
                        const StageCallback& on_stage) {
   const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
   const io::LabelVolume volume =
-      fields::close_at_faces(options.materials.empty() ? input : selected, fields::face_padding(options.fields.indicator));
+      fields::close_at_faces(options.materials.empty() ? input : selected, fields::face_padding(options.fields, input));
   using clock = std::chrono::steady_clock;
   MeshResult result;
   MeshReport& rep = result.report;
@@ -88,9 +88,14 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
   {
     char d[256];
-    std::snprintf(d, sizeof d, "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g%s",
+    rep.subcells = F.embedding.sub;
+    rep.band_voxels = F.fields.band / grid.min_spacing();
+    std::snprintf(d, sizeof d,
+                  "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g; embedding %d subcells, "
+                  "band %.3g voxels%s",
                   F.report.interfaces, F.report.triple_curves, F.report.quadruple_points, F.report.sizing.h_min,
-                  F.report.sizing.h_max, rep.face_padding[0] > 0 ? "; labels on the volume's faces: closed by label 0 outside" : "");
+                  F.report.sizing.h_max, rep.subcells, rep.band_voxels,
+                  rep.face_padding[0] > 0 ? "; labels on the volume's faces: closed by label 0 outside" : "");
     stage_done(d);
   }
   const auto& labels = F.fields.labels;

@@ -69,6 +69,8 @@ struct MaterialReport {
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
+  int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)
+  double band_voxels = 0;  // the indicator fields' band, as chosen
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
   int iterations = 0;

@@ -9,6 +9,8 @@
 #include <random>
 
 #include "fields/closest_point_embedding.h"
+#include "fields/fields_stage.h"
+#include "fields/volume_grid.h"
 #include "fields/cp_lookup_gpu.h"
 #include "ref/cp_lookup.h"
 #include "fields_volumes.h"
@@ -17,6 +19,25 @@ using namespace cpmesh;
 using namespace cpmesh::fields;
 
 namespace {
+
+// Largest distance between a WENO4 lookup and a direct Newton projection, over 500 queries within the embedding's band
+// (0.75 voxel) of a sphere of radius 20 voxels.
+double worst_lookup_error(const test::FieldsVolume& vol, const IndicatorFields& fields, const ClosestPointEmbedding& E) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> off(-0.75, 0.75);  // EmbeddingOptions::band
+  double worst = 0;
+  for (int i = 0; i < 500; ++i) {
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
+    const glm::dvec3 q = vol.centre + dir * (20.0 + off(rng));
+    const auto r = ref::cp_lookup(E, glm::vec3(q), 0);
+    REQUIRE(r.valid);
+    glm::dvec3 direct;
+    REQUIRE(project_to_feature(fields, E.features[0], q, direct));
+    worst = std::max(worst, glm::length(glm::dvec3(glm::vec3(r.value)) - direct));
+  }
+  return worst;
+}
 
 // Mean and largest distance of the embedding's stored triple-curve closest points to the analytic curves.
 std::pair<double, double> curve_errors(const test::FieldsVolume& wb, const IndicatorFields& fields,
@@ -76,23 +97,52 @@ TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and 
   CHECK(worst_zero < 0.01);
 
   // Lookups near the surface agree with a direct Newton projection of the query point.
-  std::mt19937 rng(3);
-  std::normal_distribution<double> n01;
-  std::uniform_real_distribution<double> off(-0.75, 0.75);  // EmbeddingOptions::band
-  double worst_lookup = 0;
-  for (int i = 0; i < 500; ++i) {
-    const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
-    const glm::dvec3 q = vol.centre + dir * (20.0 + off(rng));
-    const auto r = ref::cp_lookup(E, glm::vec3(q), 0);
-    REQUIRE(r.valid);
-    glm::dvec3 direct;
-    REQUIRE(project_to_feature(fields, E.features[0], q, direct));
-    worst_lookup = std::max(worst_lookup, glm::length(glm::dvec3(glm::vec3(r.value)) - direct));
-  }
+  const double worst_lookup = worst_lookup_error(vol, fields, E);
   MESSAGE("WENO4 lookup vs direct projection: max " << worst_lookup << " voxel");
   CHECK(worst_lookup < 0.02);
   // Far from the surface the stencil leaves the band and the lookup says so.
   CHECK_FALSE(ref::cp_lookup(E, glm::vec3(vol.centre), 0).valid);
+}
+
+TEST_CASE("automatic resolution: one fine point per voxel where the size floor is a voxel, with a deeper band") {
+  FieldsOptions o;  // subcells and band left at 0: chosen
+  const double voxel = 0.5;
+  auto r = resolve_fields_options(o, voxel);
+  CHECK(r.embedding.sub == 2);  // default floor: a quarter voxel
+  CHECK(r.indicator.band == 4.0);
+  o.sizing.h_min = 0.49;  // just under a voxel
+  CHECK(resolve_fields_options(o, voxel).embedding.sub == 2);
+  o.sizing.h_min = 0.5;
+  r = resolve_fields_options(o, voxel);
+  CHECK(r.embedding.sub == 1);
+  // Lookup band 0.75 plus the stencil's reach at S = 1 (2 sqrt 3 voxels) within 95% of the stored band: 4.5.
+  CHECK(r.indicator.band == 4.5);
+  CHECK(resolve_fields_options(r, voxel).embedding.sub == 1);  // idempotent
+  o.embedding.sub = 3;   // given: kept
+  o.indicator.band = 6;
+  r = resolve_fields_options(o, voxel);
+  CHECK(r.embedding.sub == 3);
+  CHECK(r.indicator.band == 6.0);
+  // The closed volume's padding follows the chosen band.
+  io::VolumeGeometry g;
+  g.spacing = {voxel, voxel, voxel};
+  o = FieldsOptions{};
+  CHECK(face_padding(o, g) == std::ceil(4.0 + 3.0) + 1);
+  o.sizing.h_min = 0.5;
+  CHECK(face_padding(o, g) == std::ceil(4.5 + 3.0) + 1);
+
+  // At S = 1 the lookups still agree with direct projections (sphere of radius 20 voxels; 0.02 at S = 1/2 above).
+  const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
+  FieldsOptions unit;
+  unit.sizing.h_min = 1.0;
+  unit = resolve_fields_options(unit, 1.0);
+  const auto fields = build_indicator_fields(vol.grid, vol.labels.data(), unit.indicator);
+  const auto E = build_closest_point_embedding(fields, unit.embedding);
+  REQUIRE(E.sub == 1);
+  CHECK(E.fine.size() == E.block_count());
+  const double worst = worst_lookup_error(vol, fields, E);
+  MESSAGE("S = 1: WENO4 lookup vs direct projection: max " << worst << " voxel");
+  CHECK(worst < 0.1);
 }
 
 TEST_CASE("curvature correction: the smoothed ball keeps its radius") {

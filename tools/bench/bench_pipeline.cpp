@@ -58,11 +58,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   int subcells = mesh::MeshOptions{}.fields.embedding.sub;
   double band = mesh::MeshOptions{}.fields.indicator.band;
-  app.add_option("--subcells", subcells, "Closest point embedding: fine points per voxel and axis")
-      ->check(CLI::Range(1, 4))
+  app.add_option("--subcells", subcells,
+                 "Closest point embedding: fine points per voxel and axis (0: 1 when --min-size is at least a voxel, "
+                 "else 2)")
+      ->check(CLI::Range(0, 4))
       ->capture_default_str();
-  app.add_option("--band", band, "Narrow band of the indicator fields, voxels (fewer subcells need a deeper band)")
-      ->capture_default_str();
+  app.add_option("--band", band,
+                 "Narrow band of the indicator fields, voxels (0: 4, or deeper where the embedding needs it)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   float skin = mesh::MeshOptions{}.advection.neighbour_skin;
   app.add_option("--skin", skin, "Verlet neighbour lists' skin, a share of h (0: walk the octree every iteration)")
       ->check(CLI::Range(0.0, 4.0))
@@ -157,8 +161,8 @@ int main(int argc, char** argv) {
           {"crossing_triangles", rep.crossing_triangles},
           {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
           {"settings",
-           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"subcells", subcells},
-            {"band", band}, {"skin", skin},
+           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"subcells", rep.subcells},
+            {"band", rep.band_voxels}, {"skin", skin},
             {"max_particles", max_particles}, {"seed", seed}}}};
       if (junctions) j["junction_error"] = bench::junction_json(je);
       for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel

@@ -62,9 +62,15 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
                 "Before that fit, do not move T-junction curve points (a surface ending on another) to where their "
                 "interfaces, extended from 2.5-6 voxels away, meet (on by default: the wedge ball's mesh curves lie "
                 "0.12 instead of 0.23 voxel off on average at 48^3)");
-  sub->add_option("--band", f.indicator.band, "Narrow band of the indicator fields, voxels")->capture_default_str();
-  sub->add_option("--subcells", f.embedding.sub, "Closest point embedding: fine points per voxel and axis (1/S)")
-      ->check(CLI::Range(1, 4))->capture_default_str();
+  sub->add_option("--band", f.indicator.band,
+                  "Narrow band of the indicator fields, voxels (0: 4, or deeper where the embedding needs it)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--subcells", f.embedding.sub,
+                  "Closest point embedding: fine points per voxel and axis (1/S; 0: 1 when --min-size is at least a "
+                  "voxel, else 2)")
+      ->check(CLI::Range(0, 4))
+      ->capture_default_str();
   sub->add_option("--density", f.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
   sub->add_option("--min-size", f.sizing.h_min, "Smallest h, physical units (0: a quarter voxel)")->capture_default_str();
   sub->add_option("--max-size", f.sizing.h_max, "Largest h, physical units (0: 4 voxels)")->capture_default_str();
@@ -98,9 +104,9 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
   sub->add_flag("--no-volumes", o->no_volumes, "Skip the per-material NRRD volumes (large for big inputs)");
   return {sub, [o] {
             Progress progress(5);
-            const io::LabelVolume volume = fields::close_at_faces(
-                progress.stage("read volume", [&] { return read_volume_input(o->input); }),
-                fields::face_padding(o->fields.indicator));
+            io::LabelVolume input = progress.stage("read volume", [&] { return read_volume_input(o->input); });
+            const double padding = fields::face_padding(o->fields, input);
+            const io::LabelVolume volume = fields::close_at_faces(std::move(input), padding);
             const fields::Grid grid = fields::grid_of(volume);
             auto r = progress.stage("fields: indicator, embedding, sizing",
                                     [&] { return fields::build_fields(grid, volume.labels.data(), o->fields); });

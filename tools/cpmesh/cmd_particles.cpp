@@ -75,9 +75,9 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--grid-seeding", o->grid_seeding, "Seed with grid points only (BioMesh3D's seeding, for comparison)");
   return {sub, [o, &g] {
             Progress progress(5);
-            const io::LabelVolume volume = fields::close_at_faces(
-                progress.stage("read volume", [&] { return read_volume_input(o->input); }),
-                fields::face_padding(o->fields.indicator));
+            io::LabelVolume input = progress.stage("read volume", [&] { return read_volume_input(o->input); });
+            const double padding = fields::face_padding(o->fields, input);
+            const io::LabelVolume volume = fields::close_at_faces(std::move(input), padding);
             const fields::Grid grid = fields::grid_of(volume);
             const auto F = progress.stage("fields", [&] { return fields::build_fields(grid, volume.labels.data(), o->fields); });
             particles::SeedStats seeded;
