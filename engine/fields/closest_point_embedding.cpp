@@ -542,7 +542,7 @@ int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels
 }
 
 double embedding_indicator_band(const EmbeddingOptions& options, int sub) {
-  return std::max(IndicatorOptions::kDefaultBand, std::ceil(2.0 * stencil_reach(options, sub) / kReachShareOfBand) / 2.0);
+  return std::max(IndicatorOptions::kDefaultBand, std::ceil(stencil_reach(options, sub) / kReachShareOfBand));
 }
 
 namespace {

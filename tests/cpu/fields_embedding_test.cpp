@@ -115,8 +115,8 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
   o.sizing.h_min = 0.5;
   r = resolve_fields_options(o, voxel);
   CHECK(r.embedding.sub == 1);
-  // Lookup band 0.75 plus the stencil's reach at S = 1 (2 sqrt 3 voxels) within 95% of the stored band: 4.5.
-  CHECK(r.indicator.band == 4.5);
+  // Lookup band 0.75 plus the stencil's reach at S = 1 (2 sqrt 3 voxels) within 95% of the stored band, in whole voxels.
+  CHECK(r.indicator.band == 5.0);
   CHECK(resolve_fields_options(r, voxel).embedding.sub == 1);  // idempotent
   o.embedding.sub = 3;   // given: kept
   o.indicator.band = 6;
@@ -129,7 +129,7 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
   o = FieldsOptions{};
   CHECK(face_padding(o, g) == std::ceil(4.0 + 3.0) + 1);
   o.sizing.h_min = 0.5;
-  CHECK(face_padding(o, g) == std::ceil(4.5 + 3.0) + 1);
+  CHECK(face_padding(o, g) == std::ceil(5.0 + 3.0) + 1);
 
   // At S = 1 the lookups still agree with direct projections (sphere of radius 20 voxels; 0.02 at S = 1/2 above).
   const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
