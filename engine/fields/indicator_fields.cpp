@@ -40,7 +40,14 @@ void gaussian_pass(std::vector<float>& f, const glm::ivec3& n, int axis, double 
       for (int ja = r.cols().begin(); ja < r.cols().end(); ++ja) {
         float* p = f.data() + size_t(jb) * strides[b] + size_t(ja) * strides[a];
         const size_t s = strides[axis];
-        for (int q = 0; q < len; ++q) line[size_t(q)] = p[size_t(q) * s];
+        bool constant = true;
+        for (int q = 0; q < len; ++q) {
+          line[size_t(q)] = p[size_t(q) * s];
+          constant = constant && line[size_t(q)] == line[0];
+        }
+        // A constant line (far inside or outside, clamped at the band) stays as it is: the weights sum to one, and
+        // their rounding is far below a float's.
+        if (constant) continue;
         for (int q = 0; q < len; ++q) {
           double acc = 0;
           if (q >= radius && q + radius < len) {  // the kernel inside the line: no clamping (same sum, same order)
