@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
+
+#include <tbb/global_control.h>
 
 #include "fields/closest_point_embedding.h"
 #include "fields/fields_stage.h"
@@ -200,6 +203,33 @@ TEST_CASE("wedge ball: 9 interfaces, 8 triple curves, 4 quadruple points near th
     for (const auto& qp : E.quadruple_points) best = std::min(best, glm::length(qp.position - want));
     MESSAGE("quadruple point error " << best << " voxel");
     CHECK(best < 0.5);  // issue 5 asks for 1 voxel; 0.15 to 0.21 measured
+  }
+}
+
+TEST_CASE("the embedding does not depend on the thread count (blocks start from their neighbours within fixed groups)") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 40);
+  const auto fields = build_indicator_fields(wb.grid, wb.labels.data());
+  for (const int sub : {1, 2}) {
+    EmbeddingOptions o;
+    o.sub = sub;
+    IndicatorFields F = fields;
+    if (sub == 1) {  // needs the deeper band
+      IndicatorOptions io;
+      io.band = embedding_indicator_band(o, 1);
+      F = build_indicator_fields(wb.grid, wb.labels.data(), io);
+    }
+    const auto many = build_closest_point_embedding(F, o);
+    ClosestPointEmbedding one;
+    {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+      one = build_closest_point_embedding(F, o);
+    }
+    REQUIRE(one.fine.size() == many.fine.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < one.fine.size(); ++i)
+      differ += std::memcmp(&one.fine[i], &many.fine[i], sizeof(glm::vec4)) != 0;
+    CHECK_MESSAGE(differ == 0, "subcells " << sub);
+    CHECK(one.keys == many.keys);
   }
 }
 
