@@ -39,22 +39,35 @@ void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const st
   CHECK(worst < 1e-5f);
 }
 
-}  // namespace
-
-TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: sphere") {
-  const auto vol = test::make_volume(io::SynthShape::sphere, 48, 16.0);
-  const auto F = fields::build_indicator_fields(vol.grid, vol.labels.data());
-  const auto E = fields::build_closest_point_embedding(F);
+// Queries around a sphere of radius 16: mostly near the surface, some far from it (invalid), one outside the grid.
+std::vector<glm::vec4> sphere_queries(const test::FieldsVolume& vol) {
   std::mt19937 rng(11);
   std::normal_distribution<double> n01;
   std::uniform_real_distribution<double> off(-3.0, 3.0);
   std::vector<glm::vec4> queries;
-  for (int i = 0; i < 4000; ++i) {  // mostly near the surface, some far from it (invalid)
+  for (int i = 0; i < 4000; ++i) {
     const glm::dvec3 dir = glm::normalize(glm::dvec3(n01(rng), n01(rng), n01(rng)));
     queries.emplace_back(glm::vec3(vol.centre + dir * (16.0 + off(rng))), glm::uintBitsToFloat(0u));
   }
-  queries.emplace_back(-5.0f, 3.0f, 3.0f, glm::uintBitsToFloat(0u));  // outside the grid
-  compare(ctx, E, queries);
+  queries.emplace_back(-5.0f, 3.0f, 3.0f, glm::uintBitsToFloat(0u));
+  return queries;
+}
+
+}  // namespace
+
+TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: sphere, two subcells and one") {
+  const auto vol = test::make_volume(io::SynthShape::sphere, 48, 16.0);
+  for (const int sub : {2, 1}) {
+    CAPTURE(sub);
+    fields::EmbeddingOptions o;
+    o.sub = sub;
+    fields::IndicatorOptions io;
+    io.band = fields::embedding_indicator_band(o, sub);
+    const auto F = fields::build_indicator_fields(vol.grid, vol.labels.data(), io);
+    const auto E = fields::build_closest_point_embedding(F, o);
+    REQUIRE(E.sub == sub);
+    compare(ctx, E, sphere_queries(vol));
+  }
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: wedge ball, every feature") {
