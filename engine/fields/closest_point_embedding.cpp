@@ -536,9 +536,9 @@ constexpr double kReachShareOfBand = 0.95;
 
 }  // namespace
 
-int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels) {
+int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels, double thin_share) {
   if (options.sub > 0) return options.sub;
-  return size_floor_voxels >= 1.0 ? 1 : 2;
+  return size_floor_voxels >= 1.0 && thin_share <= kMaxThinShareForOneSubcell ? 1 : 2;
 }
 
 double embedding_indicator_band(const EmbeddingOptions& options, int sub) {

@@ -1,18 +1,50 @@
 #include "fields/fields_stage.h"
 
 #include <chrono>
+#include <functional>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 
 namespace cpmesh::fields {
 
+namespace {
+
+double size_floor_voxels(const FieldsOptions& options, double voxel) {
+  return options.sizing.h_min > 0 ? options.sizing.h_min / voxel : 0.0;  // 0: a quarter voxel
+}
+
+// Voxels with a 6-neighbour of another label.
+size_t boundary_voxels(const Grid& grid, const uint16_t* labels) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, grid.dims.z), size_t(0),
+      [&](const tbb::blocked_range<int>& r, size_t count) {
+        const glm::ivec3 d = grid.dims;
+        for (int k = r.begin(); k < r.end(); ++k)
+          for (int j = 0; j < d.y; ++j)
+            for (int i = 0; i < d.x; ++i) {
+              const uint16_t l = labels[grid.index(i, j, k)];
+              count += (i > 0 && labels[grid.index(i - 1, j, k)] != l) || (i + 1 < d.x && labels[grid.index(i + 1, j, k)] != l) ||
+                       (j > 0 && labels[grid.index(i, j - 1, k)] != l) || (j + 1 < d.y && labels[grid.index(i, j + 1, k)] != l) ||
+                       (k > 0 && labels[grid.index(i, j, k - 1)] != l) || (k + 1 < d.z && labels[grid.index(i, j, k + 1)] != l);
+            }
+        return count;
+      },
+      std::plus<>());
+}
+
+}  // namespace
+
 FieldsOptions resolve_fields_options(FieldsOptions options, double voxel) {
-  const double floor_voxels = options.sizing.h_min > 0 ? options.sizing.h_min / voxel : 0.0;  // 0: a quarter voxel
-  options.embedding.sub = embedding_subcells(options.embedding, floor_voxels);
-  if (options.indicator.band <= 0) options.indicator.band = embedding_indicator_band(options.embedding, options.embedding.sub);
+  // The band is needed before the fields: for the subcells the floor allows (thin parts can only make them more).
+  if (options.indicator.band <= 0)
+    options.indicator.band = embedding_indicator_band(
+        options.embedding, embedding_subcells(options.embedding, size_floor_voxels(options, voxel)));
   return options;
 }
 
 FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const FieldsOptions& given) {
-  const FieldsOptions options = resolve_fields_options(given, grid.min_spacing());
+  FieldsOptions options = resolve_fields_options(given, grid.min_spacing());
   using clock = std::chrono::steady_clock;
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   FieldsResult r;
@@ -20,6 +52,10 @@ FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const Fields
   r.fields = build_indicator_fields(grid, labels, options.indicator);
   r.report.indicator_seconds = seconds_since(t);
   r.report.indicator_bytes = r.fields.memory_bytes();
+  const size_t boundary = boundary_voxels(grid, labels);
+  r.report.thin_share = boundary > 0 ? double(r.fields.protected_voxels) / double(boundary) : 0.0;
+  options.embedding.sub =
+      embedding_subcells(options.embedding, size_floor_voxels(options, grid.min_spacing()), r.report.thin_share);
   t = clock::now();
   r.report.curve_smoothing = smooth_triple_curves(r.fields, options.embedding);
   r.embedding = build_closest_point_embedding(r.fields, options.embedding);

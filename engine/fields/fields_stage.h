@@ -15,6 +15,7 @@ struct FieldsReport {
   double indicator_seconds = 0, embedding_seconds = 0, sizing_seconds = 0;
   size_t indicator_bytes = 0, embedding_bytes = 0;
   size_t interfaces = 0, triple_curves = 0, quadruple_points = 0;
+  double thin_share = 0;  // of the label-boundary voxels, those in thin parts (IndicatorFields::protected_voxels)
   SizingStats sizing;
   CurveSmoothing curve_smoothing;  // done between the indicator fields and the embedding; its time is the embedding's
 };
@@ -25,10 +26,10 @@ struct FieldsResult {
   FieldsReport report;
 };
 
-// The options with their automatic choices made, for a grid whose smallest spacing is `voxel` (physical): the
-// embedding's subcells when 0 (embedding_subcells, from the sizing floor h_min) and the indicator band when 0 (what
-// that embedding needs, embedding_indicator_band). build_fields applies it; a closed volume's padding needs the band
-// before (face_padding).
+// The options with the indicator band chosen when 0, for a grid whose smallest spacing is `voxel` (physical): what
+// the embedding needs at the subcells the sizing floor h_min allows (embedding_indicator_band, embedding_subcells).
+// build_fields applies it, then chooses the subcells themselves when 0 once the indicator fields have measured the
+// thin parts; a closed volume's padding needs the band before (face_padding).
 FieldsOptions resolve_fields_options(FieldsOptions options, double voxel);
 
 FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const FieldsOptions& options = {});

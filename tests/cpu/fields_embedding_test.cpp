@@ -110,21 +110,24 @@ TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and 
 TEST_CASE("automatic resolution: one fine point per voxel where the size floor is a voxel, with a deeper band") {
   FieldsOptions o;  // subcells and band left at 0: chosen
   const double voxel = 0.5;
-  auto r = resolve_fields_options(o, voxel);
-  CHECK(r.embedding.sub == 2);  // default floor: a quarter voxel
-  CHECK(r.indicator.band == 4.0);
+  CHECK(resolve_fields_options(o, voxel).indicator.band == 4.0);  // default floor: a quarter voxel
+  CHECK(embedding_subcells(o.embedding) == 2);
   o.sizing.h_min = 0.49;  // just under a voxel
-  CHECK(resolve_fields_options(o, voxel).embedding.sub == 2);
+  CHECK(resolve_fields_options(o, voxel).indicator.band == 4.0);
+  CHECK(embedding_subcells(o.embedding, 0.98) == 2);
   o.sizing.h_min = 0.5;
-  r = resolve_fields_options(o, voxel);
-  CHECK(r.embedding.sub == 1);
   // Lookup band 0.75 plus the stencil's reach at S = 1 (2 sqrt 3 voxels) within 95% of the stored band, in whole voxels.
+  auto r = resolve_fields_options(o, voxel);
   CHECK(r.indicator.band == 5.0);
-  CHECK(resolve_fields_options(r, voxel).embedding.sub == 1);  // idempotent
-  o.embedding.sub = 3;   // given: kept
+  CHECK(r.embedding.sub == 0);  // chosen by build_fields once the thin parts are known
+  CHECK(embedding_subcells(o.embedding, 1.0) == 1);
+  CHECK(embedding_subcells(o.embedding, 1.0, kMaxThinShareForOneSubcell) == 1);
+  CHECK(embedding_subcells(o.embedding, 1.0, 0.05) == 2);  // thin layers
+  CHECK(resolve_fields_options(r, voxel).indicator.band == 5.0);  // idempotent
+  o.embedding.sub = 3;  // given: kept
   o.indicator.band = 6;
   r = resolve_fields_options(o, voxel);
-  CHECK(r.embedding.sub == 3);
+  CHECK(embedding_subcells(r.embedding, 1.0) == 3);
   CHECK(r.indicator.band == 6.0);
   // The closed volume's padding follows the chosen band.
   io::VolumeGeometry g;
@@ -134,13 +137,30 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
   o.sizing.h_min = 0.5;
   CHECK(face_padding(o, g) == std::ceil(5.0 + 3.0) + 1);
 
+  // build_fields: a floor of a voxel and no thin parts gives one subcell; thin slabs (layers of 1-3 voxels) keep two.
+  {
+    FieldsOptions unit;
+    unit.sizing.h_min = 1.0;
+    const auto ball = test::make_volume(io::SynthShape::sphere, 32, 10.0);
+    const auto fb = build_fields(ball.grid, ball.labels.data(), unit);
+    CHECK(fb.embedding.sub == 1);
+    CHECK(fb.report.thin_share == 0.0);
+    const auto slabs = test::make_volume(io::SynthShape::slabs, 24);
+    const auto fs = build_fields(slabs.grid, slabs.labels.data(), unit);
+    MESSAGE("slabs: thin share " << fs.report.thin_share);
+    CHECK(fs.report.thin_share > kMaxThinShareForOneSubcell);
+    CHECK(fs.embedding.sub == 2);
+    CHECK(fs.fields.band == 5.0);  // the band was chosen before the thin parts were known
+  }
+
   // At S = 1 the lookups still agree with direct projections (sphere of radius 20 voxels; 0.02 at S = 1/2 above).
   const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
-  FieldsOptions unit;
-  unit.sizing.h_min = 1.0;
-  unit = resolve_fields_options(unit, 1.0);
-  const auto fields = build_indicator_fields(vol.grid, vol.labels.data(), unit.indicator);
-  const auto E = build_closest_point_embedding(fields, unit.embedding);
+  EmbeddingOptions one;
+  one.sub = 1;
+  IndicatorOptions deep;
+  deep.band = embedding_indicator_band(one, 1);
+  const auto fields = build_indicator_fields(vol.grid, vol.labels.data(), deep);
+  const auto E = build_closest_point_embedding(fields, one);
   REQUIRE(E.sub == 1);
   CHECK(E.fine.size() == E.block_count());
   const double worst = worst_lookup_error(vol, fields, E);
