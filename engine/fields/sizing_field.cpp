@@ -30,14 +30,15 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local) {
 double half_thickness(const BrickField& field, const BrickField* offset, const glm::dvec3& p, double band, double step) {
   // The field without its junction offset (indicator_fields.h): the offsets bend interfaces near triple curves by a
   // fraction of a voxel, enough to turn a walk's exit against it, and that is no thin part.
+  // (Both fields in one sample: they share the grid, the weights and the gather's indexing.)
+  const BrickField* both[2] = {&field, offset};
+  const glm::dvec3 spacing = field.grid().spacing;
   auto value = [&](const glm::dvec3& x, glm::dvec3* g) {
-    double v = field.sample_cubic_local(x, g);
-    if (offset) {
-      glm::dvec3 og;
-      v -= offset->sample_cubic_local(x, g ? &og : nullptr);
-      if (g) *g -= og;
-    }
-    return v;
+    double v[2];
+    glm::dvec3 grad[2];
+    BrickField::sample_cubic_many(both, offset ? 2 : 1, x / spacing, v, grad);
+    if (g) *g = (offset ? grad[0] - grad[1] : grad[0]) / spacing;
+    return offset ? v[0] - v[1] : v[0];
   };
   glm::dvec3 g;
   value(p, &g);
