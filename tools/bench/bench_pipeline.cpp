@@ -59,8 +59,8 @@ int main(int argc, char** argv) {
   int subcells = mesh::MeshOptions{}.fields.embedding.sub;
   double band = mesh::MeshOptions{}.fields.indicator.band;
   app.add_option("--subcells", subcells,
-                 "Closest point embedding: fine points per voxel and axis (0: 1 when --min-size is at least a voxel, "
-                 "else 2)")
+                 "Closest point embedding: fine points per voxel and axis (0: 1 when --min-size is at least a voxel "
+                 "and thin parts are at most 2% of the label boundary, else 2)")
       ->check(CLI::Range(0, 4))
       ->capture_default_str();
   app.add_option("--band", band,

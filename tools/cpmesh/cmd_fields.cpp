@@ -68,7 +68,7 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--subcells", f.embedding.sub,
                   "Closest point embedding: fine points per voxel and axis (1/S; 0: 1 when --min-size is at least a "
-                  "voxel, else 2)")
+                  "voxel and thin parts are at most 2% of the label boundary, else 2)")
       ->check(CLI::Range(0, 4))
       ->capture_default_str();
   sub->add_option("--density", f.sizing.density, "Sizing: h = density x local feature size")->capture_default_str();
