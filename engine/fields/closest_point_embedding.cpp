@@ -541,9 +541,13 @@ constexpr double kReachShareOfBand = 0.95;
 
 }  // namespace
 
-int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels, double thin_share) {
+int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels, double thin_share,
+                       double band_voxels) {
   if (options.sub > 0) return options.sub;
-  return size_floor_voxels >= 1.0 && thin_share <= kMaxThinShareForOneSubcell ? 1 : 2;
+  const bool band_allows = band_voxels <= 0 || stencil_reach(options, 1) < kReachShareOfBand * band_voxels;
+  // (The floor with a little room: a spacing read from a file and the same number typed for --min-size may differ in
+  // the last digits.)
+  return size_floor_voxels >= 1.0 - 1e-6 && thin_share <= kMaxThinShareForOneSubcell && band_allows ? 1 : 2;
 }
 
 double embedding_indicator_band(const EmbeddingOptions& options, int sub) {
@@ -722,7 +726,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
       glm::dvec3 warm_gradients[4];
       bool warm_gradients_ok = false;
       // The block one voxel back along x on the same feature, if this group just did it: its fine point (sub - 1, 0,
-      // 0), half a voxel (a voxel at sub 1) from this block's first point, starts that point.
+      // 0), one fine step from this block's first point, starts that point.
       Last& before = last[fid];
       const bool after_neighbour = before.block != SIZE_MAX && before.cell + 1 == cell && c.x > 0;
       if (after_neighbour) {

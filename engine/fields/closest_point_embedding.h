@@ -54,7 +54,8 @@ struct EmbeddingOptions {
 
 // The fine spacing when EmbeddingOptions::sub is 0, from the smallest particle spacing the sizing field may ask for
 // (SizingOptions::h_min, in voxels) and the share of the label-boundary voxels that lie in thin parts
-// (IndicatorFields::protected_voxels, parts under about two voxels thick); build_fields passes both. One fine point
+// (IndicatorFields::protected_voxels, parts under about two voxels thick; build_fields counts it as 1 where they were
+// not measured at a radius of at least a voxel); build_fields passes both. One fine point
 // per voxel where that floor is at least a voxel and at most kMaxThinShareForOneSubcell of the boundary is thin,
 // else two per voxel and axis. The lookup interpolates the stored closest points, and its error grows as S^3 times
 // the squared curvature (measured against direct Newton projections, 20,000 lookups within the band: a sphere of
@@ -65,7 +66,9 @@ struct EmbeddingOptions {
 // boundary thin) at --min-size 1 were left with 2,070 wrong faces at S = 1 against 611 at S = 1/2; the wedge ball's
 // few thin voxels (where its wedges meet the axis: 0.4% of the boundary at 128^3, 1.3% at 48^3) change nothing.
 constexpr double kMaxThinShareForOneSubcell = 0.02;
-int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels = 0, double thin_share = 0);
+// band_voxels (> 0): an indicator band already chosen; one subcell only where it is deep enough for its stencil.
+int embedding_subcells(const EmbeddingOptions& options, double size_floor_voxels = 0, double thin_share = 0,
+                       double band_voxels = 0);
 // The indicator band (voxels) the embedding needs at `sub`: its lookup band plus the WENO4 stencil's reach (see
 // build_closest_point_embedding), at least IndicatorOptions::kDefaultBand, in whole voxels: 4 at sub 2, 5 at sub 1.
 // (4.5 would do at sub 1, but the smoothing raises the clamped values near the band's edge, and the 128^3 wedge

@@ -39,7 +39,7 @@ FieldsOptions resolve_fields_options(FieldsOptions options, double voxel) {
   // The band is needed before the fields: for the subcells the floor allows (thin parts can only make them more).
   if (options.indicator.band <= 0)
     options.indicator.band = embedding_indicator_band(
-        options.embedding, embedding_subcells(options.embedding, size_floor_voxels(options, voxel)));
+        options.embedding, embedding_subcells(options.embedding, size_floor_voxels(options, voxel), 0.0, 0.0));
   return options;
 }
 
@@ -52,10 +52,14 @@ FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const Fields
   r.fields = build_indicator_fields(grid, labels, options.indicator);
   r.report.indicator_seconds = seconds_since(t);
   r.report.indicator_bytes = r.fields.memory_bytes();
+  // Thin parts as measured at a radius of at least a voxel (parts under about two voxels thick); where the tightening
+  // measured them at a smaller radius, or not at all, they count as everywhere (two subcells).
   const size_t boundary = boundary_voxels(grid, labels);
-  r.report.thin_share = boundary > 0 ? double(r.fields.protected_voxels) / double(boundary) : 0.0;
-  options.embedding.sub =
-      embedding_subcells(options.embedding, size_floor_voxels(options, grid.min_spacing()), r.report.thin_share);
+  r.report.thin_share = r.fields.thin_radius < 1.0 ? 1.0
+                        : boundary > 0            ? double(r.fields.protected_voxels) / double(boundary)
+                                                  : 0.0;
+  options.embedding.sub = embedding_subcells(options.embedding, size_floor_voxels(options, grid.min_spacing()),
+                                             r.report.thin_share, options.indicator.band);
   t = clock::now();
   r.report.curve_smoothing = smooth_triple_curves(r.fields, options.embedding);
   r.embedding = build_closest_point_embedding(r.fields, options.embedding);

@@ -15,7 +15,8 @@ struct FieldsReport {
   double indicator_seconds = 0, embedding_seconds = 0, sizing_seconds = 0;
   size_t indicator_bytes = 0, embedding_bytes = 0;
   size_t interfaces = 0, triple_curves = 0, quadruple_points = 0;
-  double thin_share = 0;  // of the label-boundary voxels, those in thin parts (IndicatorFields::protected_voxels)
+  double thin_share = 0;  // of the label-boundary voxels, those in thin parts (IndicatorFields::protected_voxels; 1
+                          // where thin parts were not measured at a radius of at least a voxel)
   SizingStats sizing;
   CurveSmoothing curve_smoothing;  // done between the indicator fields and the embedding; its time is the embedding's
 };

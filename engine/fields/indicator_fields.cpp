@@ -369,6 +369,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // The junction correction uses the same test (with r = 1 voxel if tightening is off): a layer a voxel or two thick
   // has junction corners wherever its staircase lets its two neighbours touch, and an offset there can cut it.
   const double thin_r = tighten_r > 0 ? tighten_r : options.junction_correction > 0 ? h : 0.0;
+  out.thin_radius = thin_r / h;
   std::vector<float> protected_distance;
   if (thin_r > 0) {
     protected_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());

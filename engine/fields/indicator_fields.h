@@ -64,6 +64,7 @@ struct IndicatorFields {
   std::vector<uint64_t> voxel_counts;
   std::vector<uint64_t> tightened_voxels;  // per material: voxel centres the tightening moved out of or into it
   uint64_t protected_voxels = 0;           // voxels in parts thinner than ~2r, left untightened
+  double thin_radius = 0;                  // voxels: the r of protected_voxels (0: thin parts not measured)
 
   size_t material_count() const { return labels.size(); }
   // Index (into labels) of argmax_m f_m at a continuous voxel-index position (trilinear samples).

@@ -36,7 +36,7 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
   auto value = [&](const glm::dvec3& x, glm::dvec3* g) {
     double v[2];
     glm::dvec3 grad[2];
-    BrickField::sample_cubic_many(both, offset ? 2 : 1, x / spacing, v, grad);
+    BrickField::sample_cubic_many(both, offset ? 2 : 1, x / spacing, v, g ? grad : nullptr);
     if (g) *g = (offset ? grad[0] - grad[1] : grad[0]) / spacing;
     return offset ? v[0] - v[1] : v[0];
   };
@@ -211,7 +211,7 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
         if (!is_interface[b] || normal[b] == glm::dvec3(0.0)) continue;
         const auto& m = members[block_key[b] & 0xffff];
         const double window = window_of(b);
-        if (window <= 0) continue;  // keeps its form from the pass before
+        if (window <= 0) continue;  // keeps its form from the pass before, averaged again below
         points.clear();
         normals.clear();
         buckets[block_key[b] & 0xffff].for_each_candidate(position[b], window, [&](uint32_t i) {
@@ -236,7 +236,8 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
     }
   };
   fit_shapes([&](size_t) { return kFitCells * cell_size; });
-  // A block whose first form already allows twice h_max keeps it: its h is h_max unless the wider window read twice
+  // A block whose first form already allows twice h_max keeps it (averaged once more with the second pass's, so
+  // its neighbours' refits also average in first-pass forms): its h is h_max unless the wider window read twice
   // the curvature, and the narrow windows read the voxels' staircase as more curvature, not less. (On the 128^3
   // wedge ball at --max-size 2 that is most of the surface, and the second fits were 0.7 of the sizing's 1.8 s.)
   const double h_max_curvature = options.density / (2.0 * h_max);

@@ -123,6 +123,8 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
   CHECK(embedding_subcells(o.embedding, 1.0) == 1);
   CHECK(embedding_subcells(o.embedding, 1.0, kMaxThinShareForOneSubcell) == 1);
   CHECK(embedding_subcells(o.embedding, 1.0, 0.05) == 2);  // thin layers
+  CHECK(embedding_subcells(o.embedding, 1.0, 0.0, 5.0) == 1);
+  CHECK(embedding_subcells(o.embedding, 1.0, 0.0, 4.0) == 2);  // a band given too shallow for one subcell's stencil
   CHECK(resolve_fields_options(r, voxel).indicator.band == 5.0);  // idempotent
   o.embedding.sub = 3;  // given: kept
   o.indicator.band = 6;
@@ -151,6 +153,17 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
     CHECK(fs.report.thin_share > kMaxThinShareForOneSubcell);
     CHECK(fs.embedding.sub == 2);
     CHECK(fs.fields.band == 5.0);  // the band was chosen before the thin parts were known
+    // A band given at 4 voxels keeps two subcells (one would need 5) rather than failing.
+    FieldsOptions shallow = unit;
+    shallow.indicator.band = 4;
+    CHECK(build_fields(ball.grid, ball.labels.data(), shallow).embedding.sub == 2);
+    // Thin parts not measured (no tightening, no junction correction): they count as everywhere.
+    FieldsOptions unmeasured = unit;
+    unmeasured.indicator.tighten_radius = 0;
+    unmeasured.indicator.junction_correction = 0;
+    const auto fu = build_fields(slabs.grid, slabs.labels.data(), unmeasured);
+    CHECK(fu.report.thin_share == 1.0);
+    CHECK(fu.embedding.sub == 2);
   }
 
   // At S = 1 the lookups still agree with direct projections (sphere of radius 20 voxels; 0.02 at S = 1/2 above).
