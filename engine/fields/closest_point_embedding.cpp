@@ -706,45 +706,22 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   E.fine.resize(cells.size() * size_t(per_block));
   std::vector<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
   std::vector<uint8_t> landed_in(cells.size(), 0);  // per block: some fine point landed
-  // Blocks in fixed groups of kGroup, each group on one thread in key order, so a block's first point can start
-  // from the block before it in its group (below) and the result does not depend on how the work is split.
-  constexpr size_t kGroup = 256;
-  const size_t groups = (cells.size() + kGroup - 1) / kGroup;
-  tbb::parallel_for(size_t(0), groups, [&](size_t g) {
-    // Per feature, the last block of this group on it: its cell, its last fine point's gradients (when that point
-    // landed on the block's feature), so the next block on the same feature one voxel further along x starts warm.
-    struct Last {
-      size_t block = SIZE_MAX, cell = 0;
-      bool gradients_ok = false;
-      glm::dvec3 gradients[4];
-    };
-    std::vector<Last> last(E.features.size());
-    for (size_t b = g * kGroup; b < std::min(cells.size(), (g + 1) * kGroup); ++b) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, cells.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) {
       const size_t cell = size_t(cells[b] >> 16);
       const uint32_t fid = uint32_t(cells[b] & 0xffff);
       const glm::ivec3 c = grid.voxel(cell);
       glm::dvec3 warm_gradients[4];
       bool warm_gradients_ok = false;
-      // The block one voxel back along x on the same feature, if this group just did it: its fine point (sub - 1, 0,
-      // 0), one fine step from this block's first point, starts that point.
-      Last& before = last[fid];
-      const bool after_neighbour = before.block != SIZE_MAX && before.cell + 1 == cell && c.x > 0;
-      if (after_neighbour) {
-        warm_gradients_ok = before.gradients_ok;
-        std::copy(before.gradients, before.gradients + 4, warm_gradients);
-      }
       for (int q = 0; q < per_block; ++q) {
         const glm::dvec3 ijk = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
         const glm::dvec3 x0 = grid.local(ijk);
         glm::dvec3 cp = x0;
         // The block's fine points are within a voxel of each other: start from the previous one's closest point
-        // (already on the feature), which saves most Newton iterations; the first point from the neighbouring
-        // block's nearest one where there is one.
-        const size_t warm_from = q > 0 ? b * size_t(per_block) + size_t(q - 1)
-                                       : (after_neighbour ? before.block * size_t(per_block) + size_t(sub - 1) : SIZE_MAX);
-        const glm::dvec3 warm = warm_from != SIZE_MAX ? glm::dvec3(glm::vec3(E.fine[warm_from])) : x0;
+        // (already on the feature), which saves most Newton iterations.
+        const glm::dvec3 warm = q > 0 ? glm::dvec3(glm::vec3(E.fine[b * size_t(per_block) + size_t(q - 1)])) : x0;
         // (Where that point failed, where its Newton stopped is still a better start than x0 on a medial surface.)
-        const bool warm_ok = warm_from != SIZE_MAX && E.features[fid].kind != FeatureKind::quadruple_point;
+        const bool warm_ok = q > 0 && E.features[fid].kind != FeatureKind::quadruple_point;
         const bool nudge = !curves_only || q == 0 || landed_in[b];
         // The gradients of this point's projection onto fid (the next point's start, when it lands there).
         glm::dvec3 gradients[4] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};
@@ -810,13 +787,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
         warm_gradients_ok = landed && feature == fid;  // (quadruple-point blocks never start warm: warm_ok)
         if (warm_gradients_ok) std::copy(gradients, gradients + 4, warm_gradients);
         landed_in[b] |= uint8_t(landed);
-        if (q == sub - 1) {  // the point the next block along x starts from
-          before.gradients_ok = warm_gradients_ok;
-          if (warm_gradients_ok) std::copy(gradients, gradients + 4, before.gradients);
-        }
       }
-      before.block = b;
-      before.cell = cell;
     }
   });
   if (curves_only) {  // drop the blocks where no point landed (above)

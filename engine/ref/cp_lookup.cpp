@@ -33,6 +33,10 @@ CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& loca
   r.value = glm::vec4(local, 0.0f);
   const int sub = E.sub;
   const glm::vec3 u = local / glm::vec3(E.grid.spacing) * float(sub);
+  // Outside the fine grid (NaN included) nothing is found; checked before the conversion to int, which would
+  // overflow (a NaN or a huge coordinate became a stencil far outside the table).
+  const glm::vec3 fine_dims = glm::vec3(E.grid.dims * sub);
+  if (!(u.x >= 0 && u.y >= 0 && u.z >= 0 && u.x < fine_dims.x && u.y < fine_dims.y && u.z < fine_dims.z)) return r;
   const glm::vec3 g0 = glm::floor(u);
   const glm::vec3 t = u - g0;
   const glm::ivec3 base = glm::ivec3(g0) - 1;
