@@ -55,9 +55,9 @@ struct EmbeddingOptions {
 // The fine spacing when EmbeddingOptions::sub is 0, from the smallest particle spacing the sizing field may ask for
 // (SizingOptions::h_min, in voxels) and the share of the label-boundary voxels that lie in thin parts
 // (IndicatorFields::protected_voxels, parts under about two voxels thick; build_fields counts it as 1 where they were
-// not measured at a radius of at least a voxel); build_fields passes both. One fine point
-// per voxel where that floor is at least a voxel and at most kMaxThinShareForOneSubcell of the boundary is thin,
-// else two per voxel and axis. The lookup interpolates the stored closest points, and its error grows as S^3 times
+// not measured at a radius of at least a voxel), and the band when already chosen; build_fields passes them. One
+// fine point per voxel where that floor is at least a voxel and at most kMaxThinShareForOneSubcell of the boundary
+// is thin, else two per voxel and axis. The lookup interpolates the stored closest points, and its error grows as S^3 times
 // the squared curvature (measured against direct Newton projections, 20,000 lookups within the band: a sphere of
 // radius 20 voxels, mean / max 0.0007 / 0.034 voxel at S = 1/2 and 0.0027 / 0.067 at S = 1; radius 6, 0.006 / 0.20
 // and 0.027 / 0.22); where the particles are at least a voxel apart this stays a few percent of their spacing,

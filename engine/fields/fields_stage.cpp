@@ -24,9 +24,14 @@ size_t boundary_voxels(const Grid& grid, const uint16_t* labels) {
           for (int j = 0; j < d.y; ++j)
             for (int i = 0; i < d.x; ++i) {
               const uint16_t l = labels[grid.index(i, j, k)];
-              count += (i > 0 && labels[grid.index(i - 1, j, k)] != l) || (i + 1 < d.x && labels[grid.index(i + 1, j, k)] != l) ||
-                       (j > 0 && labels[grid.index(i, j - 1, k)] != l) || (j + 1 < d.y && labels[grid.index(i, j + 1, k)] != l) ||
-                       (k > 0 && labels[grid.index(i, j, k - 1)] != l) || (k + 1 < d.z && labels[grid.index(i, j, k + 1)] != l);
+              bool differs = false;
+              for (int a = 0; a < 3 && !differs; ++a)
+                for (int side : {-1, 1}) {
+                  glm::ivec3 q(i, j, k);
+                  q[a] += side;
+                  differs |= q[a] >= 0 && q[a] < d[a] && labels[grid.index(q.x, q.y, q.z)] != l;
+                }
+              count += differs;
             }
         return count;
       },
@@ -54,7 +59,7 @@ FieldsResult build_fields(const Grid& grid, const uint16_t* labels, const Fields
   r.report.indicator_bytes = r.fields.memory_bytes();
   // Thin parts as measured at a radius of at least a voxel (parts under about two voxels thick); where the tightening
   // measured them at a smaller radius, or not at all, they count as everywhere (two subcells).
-  const size_t boundary = boundary_voxels(grid, labels);
+  const size_t boundary = r.report.boundary_voxels = boundary_voxels(grid, labels);
   r.report.thin_share = r.fields.thin_radius < 1.0 ? 1.0
                         : boundary > 0            ? double(r.fields.protected_voxels) / double(boundary)
                                                   : 0.0;

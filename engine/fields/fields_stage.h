@@ -15,8 +15,9 @@ struct FieldsReport {
   double indicator_seconds = 0, embedding_seconds = 0, sizing_seconds = 0;
   size_t indicator_bytes = 0, embedding_bytes = 0;
   size_t interfaces = 0, triple_curves = 0, quadruple_points = 0;
-  double thin_share = 0;  // of the label-boundary voxels, those in thin parts (IndicatorFields::protected_voxels; 1
-                          // where thin parts were not measured at a radius of at least a voxel)
+  size_t boundary_voxels = 0;  // voxels with a 6-neighbour of another label (interface voxels)
+  double thin_share = 0;       // of those, the share in thin parts (IndicatorFields::protected_voxels; 1 where thin
+                               // parts were not measured at a radius of at least a voxel)
   SizingStats sizing;
   CurveSmoothing curve_smoothing;  // done between the indicator fields and the embedding; its time is the embedding's
 };

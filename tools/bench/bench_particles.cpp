@@ -130,21 +130,7 @@ void fields_memory_row(const std::string& spec) {
   const auto vol = bench::load_volume_spec(spec);
   const auto grid = fields::grid_of(vol);
   const auto F = fields::build_fields(grid, vol.labels.data());
-  uint64_t interface_voxels = 0;
-  for (int k = 0; k < grid.dims.z; ++k)
-    for (int j = 0; j < grid.dims.y; ++j)
-      for (int i = 0; i < grid.dims.x; ++i) {
-        const uint16_t l = vol.labels[grid.index(i, j, k)];
-        bool differs = false;
-        for (int a = 0; a < 3 && !differs; ++a)
-          for (int s : {-1, 1}) {
-            glm::ivec3 q(i, j, k);
-            q[a] += s;
-            if (q[a] < 0 || q[a] >= grid.dims[a]) continue;
-            differs |= vol.labels[grid.index(q.x, q.y, q.z)] != l;
-          }
-        interface_voxels += differs;
-      }
+  const uint64_t interface_voxels = F.report.boundary_voxels;
   const double ind = double(F.report.indicator_bytes), emb = double(F.report.embedding_bytes);
   const double iv = double(std::max<uint64_t>(interface_voxels, 1));
   std::printf("%-16s %12llu %14.0f %14.0f %14.0f\n", spec.c_str(), static_cast<unsigned long long>(interface_voxels),
