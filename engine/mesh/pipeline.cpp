@@ -87,14 +87,18 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   const fields::Grid grid = fields::grid_of(volume);
   const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
   {
-    char d[256];
+    char d[384], thin[96] = "";
     rep.subcells = F.embedding.sub;
     rep.band_voxels = F.fields.band / grid.min_spacing();
+    const auto& stats = F.embedding.stats;
+    if (stats.failed_points > 0)
+      std::snprintf(thin, sizeof thin, ", %.1f%% of its points with no closest point found (thin layers)",
+                    100.0 * double(stats.failed_points) / double(stats.fine_points));
     std::snprintf(d, sizeof d,
                   "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g; embedding %d subcells, "
-                  "band %.3g voxels%s",
+                  "band %.3g voxels%s%s",
                   F.report.interfaces, F.report.triple_curves, F.report.quadruple_points, F.report.sizing.h_min,
-                  F.report.sizing.h_max, rep.subcells, rep.band_voxels,
+                  F.report.sizing.h_max, rep.subcells, rep.band_voxels, thin,
                   rep.face_padding[0] > 0 ? "; labels on the volume's faces: closed by label 0 outside" : "");
     stage_done(d);
   }

@@ -181,7 +181,8 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
               j["seconds"] = {{"indicator", rep.indicator_seconds}, {"embedding", rep.embedding_seconds},
                               {"sizing", rep.sizing_seconds}};
               j["bytes"] = {{"indicator_fields", rep.indicator_bytes}, {"embedding", rep.embedding_bytes}};
-              j["embedding"] = {{"subcells", E.sub}, {"blocks", E.block_count()}};
+              j["embedding"] = {{"subcells", E.sub}, {"blocks", E.block_count()}, {"fine_points", E.stats.fine_points},
+                                 {"failed_points", E.stats.failed_points}, {"newton_steps", E.stats.newton_steps}};
               j["curve_smoothing"] = {{"sigma_voxels", o->fields.embedding.curve_smoothing},
                                       {"curve_points", rep.curve_smoothing.curve_points},
                                       {"moved_points", rep.curve_smoothing.moved_points},
@@ -216,6 +217,12 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
                         o->fields.embedding.curve_smoothing, rep.curve_smoothing.moved_points,
                         rep.curve_smoothing.curve_points, rep.curve_smoothing.extrapolated_points,
                         rep.curve_smoothing.largest_move);
+            const auto& stats = r.embedding.stats;
+            const double fine = double(std::max<uint64_t>(stats.fine_points, 1));
+            std::printf("  embedding: %d subcells, %llu fine points, %.1f%% with no closest point found (thin layers), "
+                        "%.1f Newton steps per point\n",
+                        r.embedding.sub, (unsigned long long)stats.fine_points, 100.0 * double(stats.failed_points) / fine,
+                        double(stats.newton_steps) / fine);
             std::printf("  sizing h: min %.3g, mean %.3g, max %.3g (physical units)\n", rep.sizing.h_min,
                         rep.sizing.h_mean, rep.sizing.h_max);
             std::printf("  wrote %s\n", o->out.c_str());
