@@ -4,7 +4,8 @@
 // its feature with the closest point lookup. Projecting onto the feature afterwards removes the step's normal part
 // (interfaces) or all but its tangential part (triple curves) to first order: the closest point method's tangent
 // projection. Quadruple points never move. A particle whose moved position leaves its feature's band stays put and
-// is counted in `lost`. The sizing at the new position (the lookup's w) becomes the particle's h.
+// is counted in `lost`, as is one whose lookup gives no finite point with a positive h. The sizing at the new
+// position (the lookup's w) becomes the particle's h.
 // Bindings: 0-6 cp_keys, cp_tiles, cp_cells, cp_fine0..3 (texel buffers: fields::GpuEmbedding); 7 particles vec4[n] (xyz, h;
 //           updated); 8 features uint[n]; 9 feature_kinds uint[] (0 point, 1 curve, 2 interface); 10 walk result
 //           vec4[n] (gradient, E); 11 energy float[n] (E_i copied for the reduction); 12 lost uint[1] (atomic counter).
@@ -55,7 +56,9 @@ void main() {
   if (len > limit) step *= limit / len;
   bool valid;
   const vec4 cp = cp_lookup(p.xyz + step, feature, valid);
-  if (!valid) {
+  // A lookup that gives no finite point with a positive h counts as lost too: the particle keeps its place rather
+  // than carry a NaN into the tree (ref::advect).
+  if (!valid || any(isnan(cp)) || any(isinf(cp)) || !(cp.w > 0.0)) {
     atomicAdd(lost[0], 1u);
     return;
   }

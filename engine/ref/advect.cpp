@@ -1,5 +1,7 @@
 #include "ref/advect.h"
 
+#include <cmath>
+
 namespace cpmesh::ref {
 
 uint32_t advect(const fields::ClosestPointEmbedding& E, std::vector<glm::vec4>& particles,
@@ -12,7 +14,8 @@ uint32_t advect(const fields::ClosestPointEmbedding& E, std::vector<glm::vec4>& 
     const float len = glm::length(step), limit = max_move * p.w;
     if (len > limit) step *= limit / len;
     const CpResult cp = cp_lookup(E, glm::vec3(p) + step, features[i]);
-    if (!cp.valid) {
+    const glm::vec4& q = cp.value;
+    if (!cp.valid || !std::isfinite(q.x + q.y + q.z + q.w) || !(q.w > 0.0f)) {  // as advect.comp
       ++lost;
       continue;
     }

@@ -1,5 +1,6 @@
 #include "ref/cp_lookup.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cpmesh::ref {
@@ -27,6 +28,13 @@ T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
 }  // namespace
 
 float weno4(float f0, float f1, float f2, float f3, float t) { return weno4_of(f0, f1, f2, f3, t); }
+
+glm::vec4 weno4_lookup(const glm::vec4& f0, const glm::vec4& f1, const glm::vec4& f2, const glm::vec4& f3, float t) {
+  glm::vec4 r = weno4_of(f0, f1, f2, f3, t);
+  r.w = std::clamp(r.w, std::min(std::min(f0.w, f1.w), std::min(f2.w, f3.w)),
+                   std::max(std::max(f0.w, f1.w), std::max(f2.w, f3.w)));
+  return r;
+}
 
 CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& local, uint32_t feature) {
   CpResult r;
@@ -64,9 +72,9 @@ CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& loca
       }
   glm::vec4 vy[4][4], vz[4];
   for (int z = 0; z < 4; ++z)
-    for (int y = 0; y < 4; ++y) vy[z][y] = weno4_of(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x);
-  for (int z = 0; z < 4; ++z) vz[z] = weno4_of(vy[z][0], vy[z][1], vy[z][2], vy[z][3], t.y);
-  r.value = weno4_of(vz[0], vz[1], vz[2], vz[3], t.z);
+    for (int y = 0; y < 4; ++y) vy[z][y] = weno4_lookup(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x);
+  for (int z = 0; z < 4; ++z) vz[z] = weno4_lookup(vy[z][0], vy[z][1], vy[z][2], vy[z][3], t.y);
+  r.value = weno4_lookup(vz[0], vz[1], vz[2], vz[3], t.z);
   r.valid = true;
   return r;
 }

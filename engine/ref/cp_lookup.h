@@ -17,6 +17,11 @@ struct CpResult {
 
 // One-dimensional WENO4 interpolation of f(-1), f(0), f(1), f(2) at t in [0, 1).
 float weno4(float f0, float f1, float f2, float f3, float t);
+// The lookup's step along one axis: weno4 of each component, the sizing (w) then clamped to its four samples' range.
+// WENO4's quadratic pieces undershoot a valley one sample wide (4, 0.25, 0.25, 4 gives -0.22 at t = 1/2), and
+// where thin layers make such sizing valleys the lookup gave particles a negative h, which the advection turned
+// into NaN positions (with stop 32's warm start: 18 particles of the 32^3 shells in the first run).
+glm::vec4 weno4_lookup(const glm::vec4& f0, const glm::vec4& f1, const glm::vec4& f2, const glm::vec4& f3, float t);
 
 CpResult cp_lookup(const fields::ClosestPointEmbedding& embedding, const glm::vec3& local, uint32_t feature);
 

@@ -75,9 +75,12 @@ vec4 cp_fine_point(uint block, uint index_in_block) {
   return v;
 }
 
+// ref::weno4_lookup: the sizing (w) is kept within its four samples (see there).
 vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
+  const float w = clamp(cp_weno4(f0.w, f1.w, f2.w, f3.w, t), min(min(f0.w, f1.w), min(f2.w, f3.w)),
+                        max(max(f0.w, f1.w), max(f2.w, f3.w)));
   return vec4(cp_weno4(f0.x, f1.x, f2.x, f3.x, t), cp_weno4(f0.y, f1.y, f2.y, f3.y, t),
-              cp_weno4(f0.z, f1.z, f2.z, f3.z, t), cp_weno4(f0.w, f1.w, f2.w, f3.w, t));
+              cp_weno4(f0.z, f1.z, f2.z, f3.z, t), w);
 }
 
 // Closest point (xyz) and sizing (w) for a point in local coordinates on `feature`; valid = false when part of the

@@ -77,6 +77,23 @@ TEST_CASE("WENO4 reproduces quadratics exactly and does not overshoot a step") {
   CHECK(ref::weno4(300.0f, 300.5f, 301.0f, 301.5f, 0.5f) == doctest::Approx(300.75f).epsilon(1e-7));
 }
 
+TEST_CASE("lookup step: the sizing stays within its four samples where WENO4 undershoots a valley") {
+  // A one-sample valley of the sizing (thin layers): WENO4's quadratic pieces go below zero between the low samples,
+  // and a negative h made NaN particles (ref/cp_lookup.h).
+  CHECK(ref::weno4(4.0f, 0.25f, 0.25f, 4.0f, 0.5f) < 0.0f);
+  const glm::vec4 f0(0, 5, 1, 4), f1(1, 5, 2, 0.25f), f2(2, 5, 4, 0.25f), f3(3, 5, 7, 4);
+  for (float t = 0; t < 1.0f; t += 0.125f) {
+    const glm::vec4 r = ref::weno4_lookup(f0, f1, f2, f3, t);
+    CHECK(r.w >= 0.25f);
+    CHECK(r.w <= 4.0f);
+    CHECK(r.x == ref::weno4(0, 1, 2, 3, t));  // the closest point's components are not clamped
+    CHECK(r.z == ref::weno4(1, 2, 4, 7, t));
+  }
+  // Within the samples' range nothing changes.
+  const glm::vec4 g0(0, 0, 0, 1), g1(0, 0, 0, 1.5f), g2(0, 0, 0, 2), g3(0, 0, 0, 2.5f);
+  CHECK(ref::weno4_lookup(g0, g1, g2, g3, 0.3f).w == ref::weno4(1, 1.5f, 2, 2.5f, 0.3f));
+}
+
 TEST_CASE("sphere R = 20: stored closest points lie on the smooth interface and near the true sphere") {
   const auto vol = test::make_volume(io::SynthShape::sphere, 56, 20.0);
   const auto fields = build_indicator_fields(vol.grid, vol.labels.data());
