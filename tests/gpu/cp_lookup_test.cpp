@@ -1,6 +1,7 @@
 // shaders/cp_lookup.comp against ref::cp_lookup on the sphere and the wedge ball embeddings.
 #include <doctest/doctest.h>
 
+#include <limits>
 #include <random>
 
 #include "fields/cp_lookup_gpu.h"
@@ -50,6 +51,10 @@ std::vector<glm::vec4> sphere_queries(const test::FieldsVolume& vol) {
     queries.emplace_back(glm::vec3(vol.centre + dir * (16.0 + off(rng))), glm::uintBitsToFloat(0u));
   }
   queries.emplace_back(-5.0f, 3.0f, 3.0f, glm::uintBitsToFloat(0u));
+  // A NaN and far-off queries find nothing (an int conversion of them is undefined on the device too).
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const glm::vec3 p : {glm::vec3(nan), glm::vec3(3e9f), glm::vec3(-3e9f), glm::vec3(vol.centre) + glm::vec3(nan, 0, 0)})
+    queries.emplace_back(p, glm::uintBitsToFloat(0u));
   return queries;
 }
 
