@@ -58,7 +58,7 @@ void main() {
   const vec4 cp = cp_lookup(p.xyz + step, feature, valid);
   // A lookup that gives no finite point with a positive h counts as lost too: the particle keeps its place rather
   // than carry a NaN into the tree (ref::advect).
-  if (!valid || any(isnan(cp)) || any(isinf(cp)) || !(cp.w > 0.0)) {
+  if (!valid || !finite_bits(cp) || cp.w <= 0.0) {
     atomicAdd(lost[0], 1u);
     return;
   }

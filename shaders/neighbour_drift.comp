@@ -19,5 +19,5 @@ void main() {
   const vec4 a = anchors[i];
   const float d = length(particles[i].xyz - a.xyz) / a.w;
   // A NaN or an infinity (h = 0) counts as the largest drift: the lists are rebuilt.
-  atomicMax(drift[0], (isnan(d) || isinf(d)) ? 0x7f800000u : floatBitsToUint(d));
+  atomicMax(drift[0], finite_bits(d) ? floatBitsToUint(d) : 0x7f800000u);
 }

@@ -763,12 +763,12 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
           // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
           // Where every start fails (a material set that meets in the labels but not in the smooth fields: a thin
           // layer), the point keeps where the last start's full-length runs stopped (see above: the thin layers'
-          // particles need it). Once a block's point has failed, its later points (which start where that one
-          // stopped) let every start but the last give up when Newton stagnates: a failed point took 408 steps on
+          // particles need it). The point after a failed one (it starts where that one stopped) lets every start but
+          // the last give up when Newton stagnates: a failed point took 408 steps on
           // average before (7 starts, up to 2 runs of 30), 163 now (fields_embedding_test). Head phantom at 100^3
           // (2 cores): build_fields 64.0 -> 36.2 s; 4,282 of 4.5 M fine points moved, most of them nearer their
           // fine point than before (3,528 against 654: fewer runs that wander off and land on another sheet).
-          // A block's first point and every block where points land are as before.
+          // A block's first point, every block where no point fails, and where failed points stay are as before.
           for (int d = 0; !ok && nudge && d < 6; ++d) {
             glm::dvec3 nudged = x0;
             nudged[d / 2] += (d % 2 ? -1.0 : 1.0) * grid.spacing[d / 2] / 3.0;

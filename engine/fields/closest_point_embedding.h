@@ -93,9 +93,10 @@ struct ClosestPointEmbedding {
   // Fine level: sub^3 points per block, x fastest: closest point (local coordinates) in xyz, w free for the sizing field.
   std::vector<glm::vec4> fine;
 
-  // What the fine level took: its points, those where every Newton projection failed (they keep where the last run
-  // stopped: in thin layers, where a material set meets in the labels but not in the smooth fields), and the
-  // Newton iterations of all its projections.
+  // What the fine level took: the points computed (all of `fine`; the curve smoothing's own embedding drops its
+  // blocks where no point landed afterwards), those where every Newton projection failed (they keep where the last
+  // run stopped: in thin layers, where a material set meets in the labels but not in the smooth fields), and the
+  // Newton iterations of all their projections.
   struct Stats {
     uint64_t fine_points = 0, failed_points = 0, newton_steps = 0;
   } stats;

@@ -15,7 +15,8 @@ uint32_t advect(const fields::ClosestPointEmbedding& E, std::vector<glm::vec4>& 
     if (len > limit) step *= limit / len;
     const CpResult cp = cp_lookup(E, glm::vec3(p) + step, features[i]);
     const glm::vec4& q = cp.value;
-    if (!cp.valid || !std::isfinite(q.x + q.y + q.z + q.w) || !(q.w > 0.0f)) {  // as advect.comp
+    const bool finite = std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) && std::isfinite(q.w);
+    if (!cp.valid || !finite || q.w <= 0.0f) {  // as advect.comp
       ++lost;
       continue;
     }

@@ -90,8 +90,10 @@ vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
 vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   valid = false;
   const vec3 u = local_pos / CP_SPACING * float(CP_SUB);
-  // Outside the fine grid (NaN included) nothing is found, checked before the conversion to int (ref::cp_lookup).
-  if (!(all(greaterThanEqual(u, vec3(0.0))) && all(lessThan(u, vec3(CP_DIMS * CP_SUB))))) return vec4(local_pos, 0.0);
+  // Outside the fine grid (NaN included: common.glsl's finite_bits) nothing is found, checked before the conversion
+  // to int (ref::cp_lookup).
+  if (!finite_bits(u) || any(lessThan(u, vec3(0.0))) || any(greaterThanEqual(u, vec3(CP_DIMS * CP_SUB))))
+    return vec4(local_pos, 0.0);
   const vec3 g0 = floor(u);
   const vec3 t = u - g0;
   const ivec3 base = ivec3(g0) - 1;

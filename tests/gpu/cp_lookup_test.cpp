@@ -27,17 +27,24 @@ void compare(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, const st
   const auto got = results.download();
   const auto got_valid = valid.download();
   size_t n_valid = 0;
-  float worst = 0;
+  float worst = 0, worst_w = 0, lowest_w = 1e30f;
   for (uint32_t i = 0; i < n; ++i) {
     const auto want = ref::cp_lookup(E, glm::vec3(queries[i]), glm::floatBitsToUint(queries[i].w));
     REQUIRE(bool(got_valid[i]) == want.valid);
     if (!want.valid) continue;
     ++n_valid;
     worst = std::max(worst, glm::length(glm::vec3(got[i]) - glm::vec3(want.value)));
+    worst_w = std::max(worst_w, std::fabs(got[i].w - want.value.w));
+    lowest_w = std::min(lowest_w, got[i].w);
   }
-  MESSAGE(n_valid << " of " << n << " lookups valid; max GPU - reference difference " << worst << " voxel");
+  MESSAGE(n_valid << " of " << n << " lookups valid; max GPU - reference difference " << worst << " voxel, sizing "
+                  << worst_w << ", lowest sizing " << lowest_w);
   CHECK(n_valid > n / 2);
   CHECK(worst < 1e-5f);
+  CHECK(worst_w < 1e-5f);
+  float lowest_stored = 1e30f;
+  for (const auto& f : E.fine) lowest_stored = std::min(lowest_stored, f.w);
+  CHECK(lowest_w >= lowest_stored);  // the lookup step clamps the sizing to its samples (ref::weno4_lookup)
 }
 
 // Queries around a sphere of radius 16: mostly near the surface, some far from it (invalid), one outside the grid.
@@ -72,6 +79,10 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: s
     const auto E = fields::build_closest_point_embedding(F, o);
     REQUIRE(E.sub == sub);
     compare(ctx, E, sphere_queries(vol));
+    // A sizing with valleys one sample wide, where WENO4 alone undershoots (to below zero): the clamp on both sides.
+    auto valleys = E;
+    for (size_t i = 0; i < valleys.fine.size(); ++i) valleys.fine[i].w = i % 3 == 0 ? 4.0f : 0.25f;
+    compare(ctx, valleys, sphere_queries(vol));
   }
 }
 
