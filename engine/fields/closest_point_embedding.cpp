@@ -764,8 +764,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
           // Where every start fails (a material set that meets in the labels but not in the smooth fields: a thin
           // layer), the point keeps where the last start's full-length runs stopped (see above: the thin layers'
           // particles need it). The point after a failed one (it starts where that one stopped) lets every start but
-          // the last give up when Newton stagnates: a failed point took 408 steps on
-          // average before (7 starts, up to 2 runs of 30), 163 now (fields_embedding_test). Head phantom at 100^3
+          // the last give up when Newton stagnates: a failed point took 408 steps on average before (7 starts, up to
+          // 2 runs of 30), 163 now (fields_embedding_test). Head phantom at 100^3
           // (2 cores): build_fields 64.0 -> 36.2 s; 4,282 of 4.5 M fine points moved, most of them nearer their
           // fine point than before (3,528 against 654: fewer runs that wander off and land on another sheet).
           // A block's first point, every block where no point fails, and where failed points stay are as before.

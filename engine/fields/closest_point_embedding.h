@@ -99,6 +99,7 @@ struct ClosestPointEmbedding {
   // Newton iterations of all their projections.
   struct Stats {
     uint64_t fine_points = 0, failed_points = 0, newton_steps = 0;
+    double failed_share() const { return fine_points ? double(failed_points) / double(fine_points) : 0.0; }
   } stats;
 
   size_t block_count() const { return fine.size() / size_t(sub * sub * sub); }

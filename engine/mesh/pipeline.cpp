@@ -93,7 +93,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     const auto& stats = F.embedding.stats;
     if (stats.failed_points > 0)
       std::snprintf(thin, sizeof thin, ", %.1f%% of its points with no closest point found (thin layers)",
-                    100.0 * double(stats.failed_points) / double(stats.fine_points));
+                    100.0 * stats.failed_share());
     std::snprintf(d, sizeof d,
                   "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g; embedding %d subcells, "
                   "band %.3g voxels%s%s",

@@ -221,7 +221,7 @@ Command add_fields_command(CLI::App& app, const GlobalOptions&) {
             const double fine = double(std::max<uint64_t>(stats.fine_points, 1));
             std::printf("  embedding: %d subcells, %llu fine points, %.1f%% with no closest point found (thin layers), "
                         "%.1f Newton steps per point\n",
-                        r.embedding.sub, (unsigned long long)stats.fine_points, 100.0 * double(stats.failed_points) / fine,
+                        r.embedding.sub, (unsigned long long)stats.fine_points, 100.0 * stats.failed_share(),
                         double(stats.newton_steps) / fine);
             std::printf("  sizing h: min %.3g, mean %.3g, max %.3g (physical units)\n", rep.sizing.h_min,
                         rep.sizing.h_mean, rep.sizing.h_max);
