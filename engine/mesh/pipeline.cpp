@@ -86,6 +86,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   begin("fields");
   const fields::Grid grid = fields::grid_of(volume);
   const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
+  rep.steps.push_back({"fields", "indicator fields", F.report.indicator_seconds});
+  rep.steps.push_back({"fields", "embedding", F.report.embedding_seconds});
+  rep.steps.push_back({"fields", "sizing field", F.report.sizing_seconds});
   {
     char d[384], thin[96] = "";
     rep.subcells = F.embedding.sub;
@@ -163,8 +166,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization,
   // or all points meshed afresh where an insertion is degenerate) and label again.
   begin("delaunay and extraction");
-  Tets T = delaunay(points);
-  Adjacency adj = build_adjacency(T);
+  double tetrahedralization_seconds = 0;  // the rest of the stage is the extraction
+  const auto stage_start = clock::now();
+  auto timed = [&](auto&& step) {
+    const auto s0 = clock::now();
+    step();
+    tetrahedralization_seconds += std::chrono::duration<double>(clock::now() - s0).count();
+  };
+  Tets T;
+  Adjacency adj;
+  timed([&] {
+    T = delaunay(points);
+    adj = build_adjacency(T);
+  });
   std::vector<uint16_t> material, hull;
   for (int round = 0;; ++round) {
     material = label_tets(F.fields, T);
@@ -203,13 +217,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     }
     rep.added_curve_points += added;
     if (added == 0) break;
-    if (!insert_points(T, adj, extra, near_tet)) {
-      T = delaunay(points);
-      adj = build_adjacency(T);
-    }
+    timed([&] {
+      if (!insert_points(T, adj, extra, near_tet)) {
+        T = delaunay(points);
+        adj = build_adjacency(T);
+      }
+    });
   }
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
+  rep.steps.push_back({"delaunay and extraction", "tetrahedralization", tetrahedralization_seconds});
+  rep.steps.push_back({"delaunay and extraction", "extraction",
+                       std::max(0.0, std::chrono::duration<double>(clock::now() - stage_start).count() -
+                                         tetrahedralization_seconds)});
   stage_done(count(T.tets.size()) + " Delaunay tets, " + count(I.triangles.size()) + " interface triangles, " +
              std::to_string(rep.wrong_faces) + " wrong faces left");
 

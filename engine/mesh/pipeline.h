@@ -14,6 +14,9 @@
 // "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of
 // the particles, tet labels, repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh"
 // (per material: TetGen -pqAY bounded by its interface triangles, then the sliver passes; volume_mesh.h).
+// Two stages also report their steps (MeshReport::steps): "fields" = "indicator fields" + "embedding" + "sizing
+// field"; "delaunay and extraction" = "tetrahedralization" (TetGen Delaunay, then the repair's point insertions) +
+// "extraction" (tet labels, repair, interface triangles).
 #include <array>
 #include <functional>
 #include <stdexcept>
@@ -66,8 +69,15 @@ struct MaterialReport {
   TetStats tets;         // of the volume mesh
 };
 
+// A step within a stage (MeshReport::steps): its time is part of the stage's.
+struct StepTime {
+  std::string stage, step;
+  double seconds = 0;
+};
+
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
+  std::vector<StepTime> steps;                          // the parts of "fields" and "delaunay and extraction"
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)
   double band_voxels = 0;  // the indicator fields' band, as chosen

@@ -3,6 +3,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -138,6 +141,25 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   CHECK(j["materials"][0]["closed"].get<bool>());
   CHECK(j["surface"]["mean_radius_ratio"].get<double>() > 0.85);
   CHECK(j["volume_mesh"]["tets"].get<int>() > 0);
+  // Timings: the read, every stage, and the steps of the two stages that have them, each within its stage.
+  CHECK(contains(r.output, "read volume"));
+  CHECK(contains(r.output, "    tetrahedralization"));
+  for (const char* stage : {"read volume", "fields", "seeding", "advection", "delaunay and extraction", "smoothing",
+                            "quality", "volume mesh", "write"})
+    CHECK_MESSAGE(j["seconds"].contains(stage), stage);
+  const std::map<std::string, std::vector<std::string>> steps = {
+      {"fields", {"indicator fields", "embedding", "sizing field"}},
+      {"delaunay and extraction", {"tetrahedralization", "extraction"}}};
+  for (const auto& [stage, parts] : steps) {
+    double sum = 0;
+    for (const auto& part : parts) {
+      REQUIRE_MESSAGE(j["steps"][stage].contains(part), stage, ": ", part);
+      const double s = j["steps"][stage][part].get<double>();
+      CHECK(s >= 0);
+      sum += s;
+    }
+    CHECK(sum <= j["seconds"][stage].get<double>() + 1e-9);
+  }
   const auto bad = run_tool("cpmesh mesh " + vol.string() + " --format xyz -o " + out.string());
   CHECK(bad.exit_code != 0);
   CHECK(contains(bad.output, "xyz"));
@@ -154,4 +176,55 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   CHECK(contains(budget.output, "more than the limit of 20"));
   CHECK(!fs::exists(dir / "m3"));
   fs::remove_all(dir);
+}
+
+TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with every stage and step; errors clear") {
+  const auto r = run_tool("cpmesh-bench-pipeline --volumes sphere:28,wedge-ball:32 --no-peer --max-size 2.5");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  for (const char* head : {"load", "indicator", "embedding", "sizing", "seeding", "advection", "it/rnd", "tetrahedra",
+                           "extract", "smoothing", "quality", "volume", "host MiB", "dev MiB"})
+    CHECK_MESSAGE(contains(r.output, head), head);
+  std::istringstream lines(r.output);
+  std::string line;
+  std::vector<nlohmann::json> rows;
+  while (std::getline(lines, line))
+    if (line.rfind("{\"benchmark\"", 0) == 0) rows.push_back(nlohmann::json::parse(line));
+  REQUIRE(rows.size() == 2);
+  for (const auto& j : rows) {
+    INFO(j.dump());
+    double stages = 0;
+    for (const char* stage : {"load", "fields", "seeding", "advection", "delaunay and extraction", "smoothing",
+                              "quality", "volume mesh"}) {
+      REQUIRE(j["seconds"].contains(stage));
+      CHECK(j["seconds"][stage].get<double>() >= 0);
+      stages += j["seconds"][stage].get<double>();
+    }
+    CHECK(stages <= j["total_s"].get<double>() + 1e-9);
+    double fields = 0, delaunay = 0;
+    for (const char* step : {"indicator fields", "embedding", "sizing field"}) fields += j["steps"]["fields"][step].get<double>();
+    for (const char* step : {"tetrahedralization", "extraction"})
+      delaunay += j["steps"]["delaunay and extraction"][step].get<double>();
+    CHECK(fields > 0);
+    CHECK(fields <= j["seconds"]["fields"].get<double>() + 1e-9);
+    CHECK(delaunay > 0);
+    CHECK(delaunay <= j["seconds"]["delaunay and extraction"].get<double>() + 1e-9);
+    CHECK(j["particles"].get<int>() > 50);
+    CHECK(j["iterations"].get<int>() > 0);
+    CHECK(j["rounds"].get<int>() >= 1);
+    CHECK(j["tets"].get<int>() > 0);
+    CHECK(j["peak_host_mib"].get<double>() > 0);
+    CHECK(j["peak_device_mib"].get<double>() > 0);
+    CHECK(j["mean_radius_ratio"].get<double>() > 0.85);
+    CHECK(j["min_dihedral_deg"].get<double>() > 5);
+  }
+  CHECK(rows[1].contains("junction_error"));  // the wedge ball's analytic triple curves
+  CHECK(!rows[0].contains("junction_error"));
+  // Every spec is checked before the first run.
+  for (const auto& [volumes, says] : std::vector<std::pair<std::string, std::string>>{
+           {"sphere:24,cube:32", "got 'cube'"}, {"sphere:24,sphere:x", "field 'size'"}, {"sphere:24,nosuch.nrrd", "nosuch.nrrd"}}) {
+    const auto bad = run_tool("cpmesh-bench-pipeline --no-peer --volumes " + volumes);
+    CHECK(bad.exit_code == 1);
+    CHECK_MESSAGE(contains(bad.output, says), bad.output);
+    CHECK(!contains(bad.output, "{\"benchmark\""));
+  }
 }

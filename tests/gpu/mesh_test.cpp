@@ -113,6 +113,25 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
     }
   }
   CHECK(ends == 7);
+  // The steps of "fields" and "delaunay and extraction", in order, each within its stage.
+  const std::vector<std::pair<std::string, std::string>> steps = {{"fields", "indicator fields"},
+                                                                   {"fields", "embedding"},
+                                                                   {"fields", "sizing field"},
+                                                                   {"delaunay and extraction", "tetrahedralization"},
+                                                                   {"delaunay and extraction", "extraction"}};
+  REQUIRE(r.report.steps.size() == steps.size());
+  std::map<std::string, double> within;
+  for (size_t i = 0; i < steps.size(); ++i) {
+    CHECK(r.report.steps[i].stage == steps[i].first);
+    CHECK(r.report.steps[i].step == steps[i].second);
+    CHECK(r.report.steps[i].seconds >= 0);
+    within[r.report.steps[i].stage] += r.report.steps[i].seconds;
+  }
+  for (const auto& [stage, s] : seconds)
+    if (within.count(stage)) {
+      CHECK(within[stage] > 0);
+      CHECK(within[stage] <= s);
+    }
   CHECK(updates == r.report.rounds);
   CHECK(events.back().detail.find(" tets") != std::string::npos);
   const auto& S = r.surfaces;

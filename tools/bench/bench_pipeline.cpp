@@ -1,5 +1,5 @@
-// Benchmark of the whole pipeline (issue 9; mesh::mesh_volume): for each volume, time per stage, peak host and
-// device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
+// Benchmark of the whole pipeline (issue 9; mesh::mesh_volume): for each volume, time per stage (the load, the
+// fields' and the Delaunay stage's steps apart), peak host and device memory, particles, iterations, add/delete rounds, triangles, tets and the quality measures; a table row and
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
 //                         [--only-surfaces] [--max-size H] [--min-size H] [--seed S] [--no-peer] [--peer-match]
@@ -88,16 +88,35 @@ int main(int argc, char** argv) {
                "'='; up to three runs, until within 15%)");
   CLI11_PARSE(app, argc, argv);
   try {
+    for (const std::string& spec : volumes) bench::check_volume_spec(spec);  // a typo fails now, not after hours
     gpu::Context ctx(gpu::ContextOptions{device, false, false});
-    const char* stages[] = {"fields", "seeding", "advection", "delaunay and extraction", "smoothing", "quality",
-                            "volume mesh"};
-    std::printf("Pipeline on %s\n%-16s", ctx.info().name.c_str(), "volume");
-    for (const char* s : {"fields", "seeding", "advection", "delaunay", "smoothing", "quality", "volume"})
-      std::printf(" %9s", s);
-    std::printf(" %8s %9s %9s %9s %6s %6s %8s %14s %8s %8s\n", "total s", "particles", "triangles", "tets", "rr mean",
-                "rr min", "dihedral", "junction", "host MiB", "dev MiB");
+    // The table's time columns: the load, then each stage, where a stage has steps (MeshReport::steps) its steps in
+    // its place. The JSON line has both the stages ("seconds") and the steps ("steps").
+    struct Column {
+      const char* stage;
+      const char* step;  // nullptr: the whole stage
+      const char* head;
+    };
+    const Column columns[] = {{"fields", "indicator fields", "indicator"},
+                              {"fields", "embedding", "embedding"},
+                              {"fields", "sizing field", "sizing"},
+                              {"seeding", nullptr, "seeding"},
+                              {"advection", nullptr, "advection"},
+                              {"delaunay and extraction", "tetrahedralization", "tetrahedra"},
+                              {"delaunay and extraction", "extraction", "extract"},
+                              {"smoothing", nullptr, "smoothing"},
+                              {"quality", nullptr, "quality"},
+                              {"volume mesh", nullptr, "volume"}};
+    std::printf("Pipeline on %s (seconds per stage; advection: iterations/rounds)\n%-16s %6s", ctx.info().name.c_str(),
+                "volume", "load");
+    for (const Column& c : columns) std::printf(" %9s", c.head);
+    std::printf(" %7s %8s %9s %9s %9s %6s %6s %8s %14s %8s %8s\n", "it/rnd", "total s", "particles", "triangles",
+                "tets", "rr mean", "rr min", "dihedral", "junction", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
+      // Load: reading the file, or making the synthetic volume.
+      const auto load_start = std::chrono::steady_clock::now();
       const auto volume = bench::load_volume_spec(spec);
+      const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
       mesh::MeshOptions options;
       options.only_surfaces = only_surfaces;
       options.fields.sizing.h_max = max_size;
@@ -126,21 +145,20 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
         continue;
       }
-      const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double total = load_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const auto& rep = r.report;
-      std::printf("%-16s", spec.c_str());
-      nlohmann::json seconds = nlohmann::json::object();
-      for (const char* s : stages) {
-        double v = -1;
-        for (const auto& [name, sec] : rep.seconds)
-          if (name == s) v = sec;
-        if (v >= 0) {
-          std::printf(" %9.2f", v);
-          seconds[s] = v;
-        } else {
-          std::printf(" %9s", "-");
-        }
+      std::printf("%-16s %6.2f", spec.c_str(), load_seconds);
+      nlohmann::json seconds = {{"load", load_seconds}}, steps = nlohmann::json::object();
+      for (const auto& [name, sec] : rep.seconds) seconds[name] = sec;
+      for (const auto& step : rep.steps) steps[step.stage][step.step] = step.seconds;
+      for (const Column& c : columns) {
+        const nlohmann::json& in = c.step ? steps.value(c.stage, nlohmann::json::object()) : seconds;
+        const char* key = c.step ? c.step : c.stage;
+        if (in.contains(key)) std::printf(" %9.2f", in[key].get<double>());
+        else std::printf(" %9s", "-");  // a stage the run did not reach or skipped (the volume mesh)
       }
+      const std::string it_rounds = std::to_string(rep.iterations) + "/" + std::to_string(rep.rounds);
+      std::printf(" %7s", it_rounds.c_str());
       const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
       const auto junctions = bench::synth_junctions(spec);
       mesh::JunctionError je;
@@ -152,6 +170,7 @@ int main(int argc, char** argv) {
                   rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
       nlohmann::json j = {
           {"benchmark", "pipeline"}, {"device", ctx.info().name}, {"volume", spec}, {"seconds", seconds},
+          {"steps", steps},
           {"total_s", total}, {"particles", rep.particles}, {"iterations", rep.iterations}, {"rounds", rep.rounds},
           {"triangles", rep.surface.triangles}, {"tets", rep.volume.tets},
           {"mean_radius_ratio", rep.surface.mean_radius_ratio}, {"min_radius_ratio", rep.surface.min_radius_ratio},
@@ -189,7 +208,9 @@ int main(int argc, char** argv) {
         try {
           auto pj = nlohmann::json::parse(line);
           std::printf("%-16s", ("  CGAL " + std::to_string(facet).substr(0, 4) + note).c_str());
-          for (int k = 0; k < 7; ++k) std::printf(" %9s", "");
+          std::printf(" %6s", "");
+          for (size_t k = 0; k < std::size(columns); ++k) std::printf(" %9s", "");
+          std::printf(" %7s", "");
           mesh::JunctionError pje;
           if (pj.contains("junction_error")) {
             pje.edges = pj["junction_error"]["edges"].get<size_t>();

@@ -110,7 +110,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               }
               o->mesh.materials.push_back(group);
             }
+            const auto read_start = std::chrono::steady_clock::now();
             const io::LabelVolume volume = read_volume_input(o->input);
+            const double read_seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
             gpu::Context ctx(g.context());
             // On a terminal: one line per stage, rewritten while it runs.
             bool line_open = false;  // a progress line without its newline yet
@@ -166,8 +169,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume"] = volume.source;
             j["device"] = ctx.info().name;
             j["seconds"] = nlohmann::json::object();
+            j["seconds"]["read volume"] = read_seconds;
             for (const auto& [name, s] : rep.seconds) j["seconds"][name] = s;
             j["seconds"]["write"] = write_seconds;
+            j["steps"] = nlohmann::json::object();  // parts of a stage: {"fields": {"indicator fields": s, ...}, ...}
+            for (const auto& step : rep.steps) j["steps"][step.stage][step.step] = step.seconds;
             j["particles"] = rep.particles;
             j["iterations"] = rep.iterations;
             j["rounds"] = rep.rounds;
@@ -217,10 +223,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         volume.source.c_str(), rep.particles, rep.iterations, rep.rounds, rep.surface.triangles,
                         rep.volume.tets);
             std::printf("  %-24s %9s\n", "stage", "seconds");
-            double total = 0;
+            std::printf("  %-24s %9.2f\n", "read volume", read_seconds);
+            double total = read_seconds;
             for (const auto& [name, s] : rep.seconds) {
               std::printf("  %-24s %9.2f\n", name.c_str(), s);
               total += s;
+              for (const auto& step : rep.steps)
+                if (step.stage == name) std::printf("    %-22s %9.2f\n", step.step.c_str(), step.seconds);
             }
             std::printf("  %-24s %9.2f\n", "write", write_seconds);
             std::printf("  %-24s %9.2f\n", "total", total + write_seconds);
