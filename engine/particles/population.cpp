@@ -517,6 +517,18 @@ Population add_delete(const fields::ClosestPointEmbedding& E, const Population& 
   return out;
 }
 
+void SteadyRule::after_round(uint32_t added, uint32_t deleted, uint32_t n) {
+  const double net = double(added) - double(deleted), share = options_.steady_share * double(n);
+  balanced_rounds_ = std::fabs(net) <= share ? balanced_rounds_ + 1 : 0;
+  nets_.push_back(net);
+  const auto window = size_t(std::max(options_.steady_window, 2));
+  const bool on_average = nets_.size() >= window &&
+                          std::fabs(std::accumulate(nets_.end() - std::ptrdiff_t(window), nets_.end(), 0.0)) <=
+                              double(window) * share;
+  const bool negligible = double(added) + double(deleted) <= options_.negligible_share * double(n);
+  steady_ = steady_ || balanced_rounds_ >= 2 || on_average || negligible;
+}
+
 RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Population start,
                   const AdvectionOptions& advection, const PopulationOptions& options,
                   const std::function<void(const RoundReport&)>& on_round) {
@@ -530,7 +542,7 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   AdvectionOptions adv = advection;
   adv.max_iterations = options.iterations_per_round;
   adv.min_iterations = options.min_iterations_per_round;
-  int steady_rounds = 0;
+  SteadyRule steady(options);
   for (int round = 1; round <= options.max_rounds; ++round) {
     RoundReport rep;
     rep.round = round;
@@ -558,7 +570,7 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     const bool settled = balanced && double(check.delete_candidates + check.add_candidates) <= options.significance * double(n);
     // A round whose add/delete step changes nothing ends the rounds too: the population is the one the last run
     // relaxed and this check measured, and another run would only repeat this round (balanced out at zero: steady).
-    const bool last = settled || round == options.max_rounds || steady_rounds >= 2;
+    const bool last = settled || round == options.max_rounds || steady.steady();
     if (!last) {
       t = clock::now();
       const auto walk = system.walk_result();
@@ -572,16 +584,11 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
     if (last || unchanged) {
       rep.total = n;
       result.settled = settled;
-      result.steady = steady_rounds >= 2 || unchanged;
+      result.steady = steady.steady() || unchanged;
     } else {
-      // Steady: add and delete balance out (|added - deleted| within steady_share of n) two rounds running, or
-      // once with a negligible change; one more advection run then ends it.
-      const double net = std::fabs(double(rep.added) - double(rep.deleted));
-      steady_rounds = net <= options.steady_share * double(n) ? steady_rounds + 1 : 0;
-      // A negligible change (a few holes filled) is steady at once: the next run relaxes it and ends the rounds.
-      const double changed = double(rep.added) + double(rep.deleted);
-      if (changed <= options.negligible_share * double(n)) steady_rounds = 2;
+      steady.after_round(rep.added, rep.deleted, n);  // once steady, one more advection run ends the rounds
       // The next run's length at least: a small change settles locally (population.h).
+      const double changed = double(rep.added) + double(rep.deleted);
       const bool small = changed <= options.small_change_share * double(n);
       adv.min_iterations = small ? std::min(options.min_iterations_per_round, options.min_iterations_after_small_change)
                                  : options.min_iterations_per_round;

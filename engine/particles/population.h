@@ -30,8 +30,9 @@
 //   Rounds end when the population is settled, when a round's add/delete step changed nothing (the population is
 //   then the one the last run relaxed: no further run), or when adds and deletes have balanced out two rounds
 //   running (steady: graded sizing keeps a churn of local adds and deletes, as the pair energy scales with the
-//   smaller h) or after one round that changed a negligible share (negligible_share); every ending is after an
-//   advection run of the final population.
+//   smaller h), or on average over steady_window rounds (a churn that swings the count up and down), or after one
+//   round that changed a negligible share (negligible_share); every ending is after an advection run of the final
+//   population.
 //      The changed population is uploaded once per round.
 // The paper's rules (a) and (c) only repair local holes and clumps: a population that is evenly too dense or too
 // sparse has every particle's energy between the thresholds, so (b) is what brings the count to the sizing field's.
@@ -78,7 +79,8 @@ struct PopulationOptions {
                                       // hexagonal count, at 1.15 up to 5% above it (434 of 412.7)
   double energy_tolerance = 0.05;     // settled when each feature's mean E / ideal is within this of the above ...
   double significance = 0.1;          // ... and at most this share of the particles is flagged
-  double steady_share = 0.01;         // steady: |added - deleted| below this share of n two rounds running
+  double steady_share = 0.01;         // steady: |added - deleted| below this share of n two rounds running, or
+  int steady_window = 4;              // its sum over this many rounds below this many times that share of n
   double negligible_share = 0.001;    // ... or, at once, added + deleted at most this share of n: so few changes
                                       // settle in the next run, and another round would change as little
   int max_rounds = 20;                // add/delete rounds at most
@@ -195,6 +197,25 @@ Population add_delete(const fields::ClosestPointEmbedding& embedding, const Popu
                       const std::vector<float>& energies, const std::vector<uint32_t>& flags,
                       const std::vector<double>& feature_energy_ratio, const PopulationOptions& options,
                       std::mt19937& rng, RoundReport& report);
+
+// The steady rule (above), fed each add/delete step's counts: steady once adds and deletes have balanced out
+// (|added - deleted| within steady_share of n) two rounds running, or their sum over the last steady_window rounds
+// within steady_window x steady_share of n (a churn that swings the count up and down: on the 32^3 shells a tenth
+// of the particles were deleted and re-added every round, and the rounds ran to max_rounds, 2.9x the time for
+// meshes of the same quality over three seeds), or once a round changed at most negligible_share of n (a few holes
+// filled). It stays steady; relax then ends after one more advection run.
+class SteadyRule {
+ public:
+  explicit SteadyRule(const PopulationOptions& options) : options_(options) {}
+  void after_round(uint32_t added, uint32_t deleted, uint32_t n);
+  bool steady() const { return steady_; }
+
+ private:
+  PopulationOptions options_;
+  int balanced_rounds_ = 0;
+  std::vector<double> nets_;  // added - deleted, per round
+  bool steady_ = false;
+};
 
 struct RelaxResult {
   Population population;
