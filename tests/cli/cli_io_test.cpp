@@ -219,6 +219,30 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
   }
   CHECK(rows[1].contains("junction_error"));  // the wedge ball's analytic triple curves
   CHECK(!rows[0].contains("junction_error"));
+  // Scaling: a run per largest h, then each stage's exponent against the particle count.
+  const auto sweep = run_tool("cpmesh-bench-pipeline --volumes sphere:28 --no-peer --only-surfaces --sweep-max-size 4,1.5");
+  REQUIRE_MESSAGE(sweep.exit_code == 0, sweep.output);
+  CHECK(contains(sweep.output, "sphere:28 h1.5"));
+  CHECK(contains(sweep.output, "exponent k, t ~ n^k"));
+  nlohmann::json scaling;
+  std::istringstream sweep_lines(sweep.output);
+  size_t runs = 0;
+  while (std::getline(sweep_lines, line)) {
+    if (line.rfind("{\"benchmark\":\"pipeline_scaling\"", 0) == 0) scaling = nlohmann::json::parse(line);
+    runs += line.rfind("{\"benchmark\":\"pipeline\"", 0) == 0;
+  }
+  CHECK(runs == 2);
+  REQUIRE(scaling.is_object());
+  INFO(scaling.dump());
+  REQUIRE(scaling["rows"].size() == 2);
+  CHECK(scaling["rows"][0]["max_size"].get<double>() == 4.0);
+  // A smaller h, more particles (about (4 / 1.5)^2 as many on a surface).
+  CHECK(scaling["rows"][1]["particles"].get<double>() > 3 * scaling["rows"][0]["particles"].get<double>());
+  for (const char* key : {"indicator fields", "embedding", "sizing field", "seeding", "advection", "advection iteration",
+                          "tetrahedralization", "extraction", "smoothing", "quality", "total"})
+    CHECK_MESSAGE(scaling["exponents"][key].is_number(), key);  // fitted (its value is timing: not tested)
+  CHECK(!scaling["exponents"].contains("volume mesh"));  // --only-surfaces: in no row
+
   // Every spec is checked before the first run.
   for (const auto& [volumes, says] : std::vector<std::pair<std::string, std::string>>{
            {"sphere:24,cube:32", "got 'cube'"}, {"sphere:24,sphere:x", "field 'size'"}, {"sphere:24,nosuch.nrrd", "nosuch.nrrd"}}) {

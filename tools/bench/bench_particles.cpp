@@ -32,18 +32,6 @@ using namespace cpmesh;
 
 namespace {
 
-// Least-squares slope of log y against log x: the exponent of y ~ x^k.
-double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) {
-  const size_t n = x.size();
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const double lx = std::log(x[i]), ly = std::log(std::max(y[i], 1e-9));
-    sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
-  }
-  const double d = double(n) * sxx - sx * sx;
-  return d > 0 ? (double(n) * sxy - sx * sy) / d : 0.0;
-}
-
 // The stages of one iteration, by kernel: sort (Morton codes and radix passes), tree (octree levels, scans,
 // compaction, moments), walk (the octree walk of either mode, or the neighbour lists' builds and sums), advect (move
 // and project), other (energy reduction, list drift).
@@ -101,14 +89,15 @@ void run_scaling(gpu::Context& ctx, fields::FieldsResult& F, std::vector<uint32_
   const size_t half = xs.size() / 2;
   auto upper = [&](const std::vector<double>& v) { return std::vector<double>(v.begin() + long(half), v.end()); };
   nlohmann::json exponents;
-  std::printf("fitted exponent k in time ~ n^k: %-8s all counts %.2f, upper half %.2f\n", "total", loglog_slope(xs, total),
-              loglog_slope(upper(xs), upper(total)));
-  exponents["total"] = {loglog_slope(xs, total), loglog_slope(upper(xs), upper(total))};
-  for (const char* st : stages) {
-    std::printf("fitted exponent k in time ~ n^k: %-8s all counts %.2f, upper half %.2f\n", st,
-                loglog_slope(xs, per_stage[st]), loglog_slope(upper(xs), upper(per_stage[st])));
-    exponents[st] = {loglog_slope(xs, per_stage[st]), loglog_slope(upper(xs), upper(per_stage[st]))};
-  }
+  // (Fewer than two counts in the upper half: "-", null in the JSON.)
+  auto fit = [&](const char* name, const std::vector<double>& ys) {
+    const double all = bench::loglog_slope(xs, ys), top = bench::loglog_slope(upper(xs), upper(ys));
+    std::printf("fitted exponent k in time ~ n^k: %-8s all counts %s, upper half %s\n", name,
+                bench::exponent_cell(all).c_str(), bench::exponent_cell(top).c_str());
+    exponents[name] = {bench::exponent_json(all), bench::exponent_json(top)};
+  };
+  fit("total", total);
+  for (const char* st : stages) fit(st, per_stage[st]);
   // Device memory = fixed (the embedding) + per particle: least-squares line through (n, bytes).
   double mx = 0, my = 0;
   for (size_t i = 0; i < xs.size(); ++i) mx += xs[i] / double(xs.size()), my += device_bytes[i] / double(xs.size());

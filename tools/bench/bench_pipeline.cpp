@@ -86,6 +86,13 @@ int main(int argc, char** argv) {
   app.add_flag("--peer-match", peer_match,
                "Run the CGAL peer again at the facet size that gives about cpmesh's triangle count (rows marked "
                "'='; up to three runs, until within 15%)");
+  std::vector<double> sweep;
+  app.add_option("--sweep-max-size", sweep,
+                 "Scaling: run each volume at each of these largest h (physical units, e.g. 4,2,1,0.5) instead of "
+                 "--max-size, then print how each stage's time grows with the particle count (log-log fitted "
+                 "exponents); no CGAL peer")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
   try {
     for (const std::string& spec : volumes) bench::check_volume_spec(spec);  // a typo fails now, not after hours
@@ -117,130 +124,147 @@ int main(int argc, char** argv) {
       const auto load_start = std::chrono::steady_clock::now();
       const auto volume = bench::load_volume_spec(spec);
       const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
-      mesh::MeshOptions options;
-      options.only_surfaces = only_surfaces;
-      options.fields.sizing.h_max = max_size;
-      options.fields.sizing.h_min = min_size;
-      options.fields.embedding.sub = subcells;
-      options.fields.indicator.band = band;
-      options.advection.neighbour_skin = skin;
-      options.max_particles = max_particles;
-      options.population.seed = seed;
-      const auto t0 = std::chrono::steady_clock::now();
-      mesh::MeshResult r;
-      try {
-        // Each finished stage, and the progress within one, on stderr (the table and JSON stay on stdout): a long run shows where it is.
-        r = mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) {
-          if (e.seconds < 0) {
-            if (!e.detail.empty()) std::fprintf(stderr, "  %s: %s: %s\n", spec.c_str(), e.stage.c_str(), e.detail.c_str());
-          } else {
-            std::fprintf(stderr, "  %s: %s %.2f s, %s\n", spec.c_str(), e.stage.c_str(), e.seconds, e.detail.c_str());
-          }
-          std::fflush(stderr);
-        });
-      } catch (const mesh::ParticleBudgetError& e) {
-        std::printf("%-16s stopped: %s\n", spec.c_str(), e.what());
-        std::printf("%s\n", nlohmann::json{{"benchmark", "pipeline"}, {"volume", spec}, {"device", ctx.info().name},
-                                           {"stopped", e.what()}}.dump().c_str());
-        std::fflush(stdout);
-        continue;
-      }
-      const double total = load_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const auto& rep = r.report;
-      std::printf("%-16s %6.2f", spec.c_str(), load_seconds);
-      nlohmann::json seconds = {{"load", load_seconds}}, steps = nlohmann::json::object();
-      for (const auto& [name, sec] : rep.seconds) seconds[name] = sec;
-      for (const auto& step : rep.steps) steps[step.stage][step.step] = step.seconds;
-      for (const Column& c : columns) {
-        const nlohmann::json& in = c.step ? steps.value(c.stage, nlohmann::json::object()) : seconds;
-        const char* key = c.step ? c.step : c.stage;
-        if (in.contains(key)) std::printf(" %9.2f", in[key].get<double>());
-        else std::printf(" %9s", "-");  // a stage the run did not reach or skipped (the volume mesh)
-      }
-      const std::string it_rounds = std::to_string(rep.iterations) + "/" + std::to_string(rep.rounds);
-      std::printf(" %7s", it_rounds.c_str());
-      const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
-      const auto junctions = bench::synth_junctions(spec);
-      mesh::JunctionError je;
-      if (junctions)
-        je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
-                                  std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
-      std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
-                  rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
-                  rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
-      nlohmann::json j = {
-          {"benchmark", "pipeline"}, {"device", ctx.info().name}, {"volume", spec}, {"seconds", seconds},
-          {"steps", steps},
-          {"total_s", total}, {"particles", rep.particles}, {"iterations", rep.iterations}, {"rounds", rep.rounds},
-          {"triangles", rep.surface.triangles}, {"tets", rep.volume.tets},
-          {"mean_radius_ratio", rep.surface.mean_radius_ratio}, {"min_radius_ratio", rep.surface.min_radius_ratio},
-          {"share_below_0_5", rep.surface.share_below_half}, {"min_dihedral_deg", rep.volume.min_dihedral_deg},
-          {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
-          {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
-          {"crossing_triangles", rep.crossing_triangles},
-          {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
-          {"settings",
-           {{"min_size", min_size}, {"max_size", max_size}, {"only_surfaces", only_surfaces}, {"subcells", rep.subcells},
-            {"band", rep.band_voxels}, {"skin", skin},
-            {"max_particles", max_particles}, {"seed", seed}}}};
-      if (junctions) j["junction_error"] = bench::junction_json(je);
-      for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel
-        j["volume_runs"].push_back({{"material", run.material < rep.materials.size()
-                                                     ? nlohmann::json(rep.materials[run.material].label)
-                                                     : nlohmann::json("all")},
-                                    {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
-      std::cout << j.dump() << '\n';
-
-      // The peer, in a child process (its own memory, its own failures).
-      const auto peer = std::filesystem::read_symlink("/proc/self/exe").parent_path() / "cpmesh-peer-cgal";
-      if (no_peer || !std::filesystem::exists(peer)) continue;
-      // One peer run at a facet size; returns its surface triangles (0 when it failed).
-      auto run_peer = [&](double facet, const char* note) -> int {
-        // The facet distance and cell size bounds scale with the facet size (0.5 and 3 voxels at the default 1.5),
-        // or they alone set the count.
-        const std::string command = peer.string() + " '" + spec + "' --facet-size " + std::to_string(facet) +
-                                    " --facet-distance " + std::to_string(facet / 3) + " --cell-size " +
-                                    std::to_string(2 * facet);
-        std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-        std::string line;
-        char buffer[4096];
-        while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) line += buffer;
+      std::vector<bench::ScalingRow> scaling;  // with --sweep-max-size: one per run that finished
+      for (const double h_max : sweep.empty() ? std::vector<double>{max_size} : sweep) {
+        const std::string name = sweep.empty() ? spec : spec + " h" + bench::short_number(h_max);
+        mesh::MeshOptions options;
+        options.only_surfaces = only_surfaces;
+        options.fields.sizing.h_max = h_max;
+        options.fields.sizing.h_min = min_size;
+        options.fields.embedding.sub = subcells;
+        options.fields.indicator.band = band;
+        options.advection.neighbour_skin = skin;
+        options.max_particles = max_particles;
+        options.population.seed = seed;
+        const auto t0 = std::chrono::steady_clock::now();
+        mesh::MeshResult r;
         try {
-          auto pj = nlohmann::json::parse(line);
-          std::printf("%-16s", ("  CGAL " + std::to_string(facet).substr(0, 4) + note).c_str());
-          std::printf(" %6s", "");
-          for (size_t k = 0; k < std::size(columns); ++k) std::printf(" %9s", "");
-          std::printf(" %7s", "");
-          mesh::JunctionError pje;
-          if (pj.contains("junction_error")) {
-            pje.edges = pj["junction_error"]["edges"].get<size_t>();
-            pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
-            pje.mean = pj["junction_error"]["mean"].get<double>();
-            pje.max = pj["junction_error"]["max"].get<double>();
-            pje.max_whole_edge = pj["junction_error"].value("max_whole_edge", 0.0);
-          }
-          std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %14s\n", pj["total_s"].get<double>(), "-",
-                      pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
-                      pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
-                      junction_cell(pj.contains("junction_error"), pje).c_str());
-          pj["matched_to_cpmesh"] = *note != 0;
-          std::cout << pj.dump() << '\n';
-          return pj["triangles"].get<int>();
-        } catch (const std::exception& e) {
-          std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());
-          return 0;
+          // Each finished stage, and the progress within one, on stderr (the table and JSON stay on stdout): a long run shows where it is.
+          r = mesh::mesh_volume(ctx, volume, options, [&](const mesh::StageEvent& e) {
+            if (e.seconds < 0) {
+              if (!e.detail.empty()) std::fprintf(stderr, "  %s: %s: %s\n", name.c_str(), e.stage.c_str(), e.detail.c_str());
+            } else {
+              std::fprintf(stderr, "  %s: %s %.2f s, %s\n", name.c_str(), e.stage.c_str(), e.seconds, e.detail.c_str());
+            }
+            std::fflush(stderr);
+          });
+        } catch (const mesh::ParticleBudgetError& e) {
+          std::printf("%-16s stopped: %s\n", name.c_str(), e.what());
+          std::printf("%s\n", nlohmann::json{{"benchmark", "pipeline"}, {"volume", spec}, {"device", ctx.info().name},
+                                             {"stopped", e.what()}}.dump().c_str());
+          std::fflush(stdout);
+          continue;
         }
-      };
-      int peer_triangles = run_peer(peer_facet, "");
-      // Triangle count goes about as 1 / facet^2 (less where CGAL's distance bound adds triangles): up to three more
-      // runs, each at the facet size that this predicts for cpmesh's count, until within 15% of it.
-      double facet = peer_facet;
-      for (int tries = 0; peer_match && tries < 3 && peer_triangles > 0 && rep.surface.triangles > 0; ++tries) {
-        const double ratio = double(peer_triangles) / double(rep.surface.triangles);
-        if (tries > 0 && std::fabs(ratio - 1) < 0.15) break;
-        facet *= std::sqrt(ratio);
-        peer_triangles = run_peer(facet, "=");
+        const double total = load_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const auto& rep = r.report;
+        std::printf("%-16s %6.2f", name.c_str(), load_seconds);
+        nlohmann::json seconds = {{"load", load_seconds}}, steps = nlohmann::json::object();
+        for (const auto& [name, sec] : rep.seconds) seconds[name] = sec;
+        for (const auto& step : rep.steps) steps[step.stage][step.step] = step.seconds;
+        for (const Column& c : columns) {
+          const nlohmann::json& in = c.step ? steps.value(c.stage, nlohmann::json::object()) : seconds;
+          const char* key = c.step ? c.step : c.stage;
+          if (in.contains(key)) std::printf(" %9.2f", in[key].get<double>());
+          else std::printf(" %9s", "-");  // a stage the run did not reach or skipped (the volume mesh)
+        }
+        const std::string it_rounds = std::to_string(rep.iterations) + "/" + std::to_string(rep.rounds);
+        std::printf(" %7s", it_rounds.c_str());
+        const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
+        const auto junctions = bench::synth_junctions(spec);
+        mesh::JunctionError je;
+        if (junctions)
+          je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
+                                    std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
+        std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
+                    rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
+                    rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
+        nlohmann::json j = {
+            {"benchmark", "pipeline"}, {"device", ctx.info().name}, {"volume", spec}, {"seconds", seconds},
+            {"steps", steps},
+            {"total_s", total}, {"particles", rep.particles}, {"iterations", rep.iterations}, {"rounds", rep.rounds},
+            {"triangles", rep.surface.triangles}, {"tets", rep.volume.tets},
+            {"mean_radius_ratio", rep.surface.mean_radius_ratio}, {"min_radius_ratio", rep.surface.min_radius_ratio},
+            {"share_below_0_5", rep.surface.share_below_half}, {"min_dihedral_deg", rep.volume.min_dihedral_deg},
+            {"interfaces_manifold", rep.interfaces_manifold}, {"interfaces", rep.interfaces.size()},
+            {"materials_closed", rep.materials_closed}, {"wrong_faces", rep.wrong_faces},
+            {"crossing_triangles", rep.crossing_triangles},
+            {"peak_host_mib", peak_rss_mib()}, {"peak_device_mib", dev_mib},
+            {"settings",
+             {{"min_size", min_size}, {"max_size", h_max}, {"only_surfaces", only_surfaces}, {"subcells", rep.subcells},
+              {"band", rep.band_voxels}, {"skin", skin},
+              {"max_particles", max_particles}, {"seed", seed}}}};
+        if (junctions) j["junction_error"] = bench::junction_json(je);
+        for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel
+          j["volume_runs"].push_back({{"material", run.material < rep.materials.size()
+                                                       ? nlohmann::json(rep.materials[run.material].label)
+                                                       : nlohmann::json("all")},
+                                      {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
+        std::cout << j.dump() << '\n';
+        if (!sweep.empty()) {
+          bench::ScalingRow row{h_max, double(rep.particles), {{"total", total}}};
+          for (const auto& [stage, sec] : seconds.items()) row.seconds[stage] = sec.get<double>();
+          for (const auto& [stage, parts] : steps.items())
+            for (const auto& [step, sec] : parts.items()) row.seconds[step] = sec.get<double>();
+          if (rep.iterations > 0) row.seconds["advection iteration"] = seconds["advection"].get<double>() / rep.iterations;
+          scaling.push_back(row);
+        }
+
+        // The peer, in a child process (its own memory, its own failures).
+        const auto peer = std::filesystem::read_symlink("/proc/self/exe").parent_path() / "cpmesh-peer-cgal";
+        if (no_peer || !sweep.empty() || !std::filesystem::exists(peer)) continue;
+        // One peer run at a facet size; returns its surface triangles (0 when it failed).
+        auto run_peer = [&](double facet, const char* note) -> int {
+          // The facet distance and cell size bounds scale with the facet size (0.5 and 3 voxels at the default 1.5),
+          // or they alone set the count.
+          const std::string command = peer.string() + " '" + spec + "' --facet-size " + std::to_string(facet) +
+                                      " --facet-distance " + std::to_string(facet / 3) + " --cell-size " +
+                                      std::to_string(2 * facet);
+          std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+          std::string line;
+          char buffer[4096];
+          while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) line += buffer;
+          try {
+            auto pj = nlohmann::json::parse(line);
+            std::printf("%-16s", ("  CGAL " + std::to_string(facet).substr(0, 4) + note).c_str());
+            std::printf(" %6s", "");
+            for (size_t k = 0; k < std::size(columns); ++k) std::printf(" %9s", "");
+            std::printf(" %7s", "");
+            mesh::JunctionError pje;
+            if (pj.contains("junction_error")) {
+              pje.edges = pj["junction_error"]["edges"].get<size_t>();
+              pje.spurious = pj["junction_error"]["spurious"].get<size_t>();
+              pje.mean = pj["junction_error"]["mean"].get<double>();
+              pje.max = pj["junction_error"]["max"].get<double>();
+              pje.max_whole_edge = pj["junction_error"].value("max_whole_edge", 0.0);
+            }
+            std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %14s\n", pj["total_s"].get<double>(), "-",
+                        pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
+                        pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
+                        junction_cell(pj.contains("junction_error"), pje).c_str());
+            pj["matched_to_cpmesh"] = *note != 0;
+            std::cout << pj.dump() << '\n';
+            return pj["triangles"].get<int>();
+          } catch (const std::exception& e) {
+            std::printf("  CGAL peer failed on %s: %s\n", spec.c_str(), line.empty() ? "no output" : line.c_str());
+            return 0;
+          }
+        };
+        int peer_triangles = run_peer(peer_facet, "");
+        // Triangle count goes about as 1 / facet^2 (less where CGAL's distance bound adds triangles): up to three more
+        // runs, each at the facet size that this predicts for cpmesh's count, until within 15% of it.
+        double facet = peer_facet;
+        for (int tries = 0; peer_match && tries < 3 && peer_triangles > 0 && rep.surface.triangles > 0; ++tries) {
+          const double ratio = double(peer_triangles) / double(rep.surface.triangles);
+          if (tries > 0 && std::fabs(ratio - 1) < 0.15) break;
+          facet *= std::sqrt(ratio);
+          peer_triangles = run_peer(facet, "=");
+        }
       }
+      if (!sweep.empty())
+        bench::print_scaling(spec, scaling,
+                             {"load", "indicator fields", "embedding", "sizing field", "seeding", "advection",
+                              "advection iteration", "tetrahedralization", "extraction", "smoothing", "quality",
+                              "volume mesh", "total"});
     }
     return 0;
   } catch (const std::exception& e) {

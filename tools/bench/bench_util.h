@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -63,6 +66,76 @@ inline std::optional<io::Junctions> synth_junctions(const std::string& spec) {
   const auto o = synth_spec(spec);
   if (!o || o->shape != io::SynthShape::wedge_ball) return std::nullopt;
   return io::make_synth_volume(*o).junctions;
+}
+
+// Least-squares slope of log y against log x: the exponent k of y ~ x^k. NaN with fewer than two points or one x.
+inline double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = std::min(x.size(), y.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double lx = std::log(x[i]), ly = std::log(std::max(y[i], 1e-9));
+    sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+  }
+  const double d = double(n) * sxx - sx * sx;
+  return n >= 2 && d > 1e-12 ? (double(n) * sxy - sx * sy) / d : std::nan("");
+}
+
+// An exponent for a table ("-" where it could not be fitted) and for JSON (null there).
+inline std::string exponent_cell(double k) {
+  if (std::isnan(k)) return "-";
+  char cell[32];
+  std::snprintf(cell, sizeof cell, "%.2f", k);
+  return cell;
+}
+inline nlohmann::json exponent_json(double k) { return std::isnan(k) ? nlohmann::json(nullptr) : nlohmann::json(k); }
+
+// 0.5 -> "0.5", 2 -> "2" (row labels).
+inline std::string short_number(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%g", v);
+  return s;
+}
+
+// One pipeline run of a scaling sweep (cpmesh-bench-pipeline --sweep-max-size): seconds per stage and step.
+struct ScalingRow {
+  double max_size = 0, particles = 0;
+  std::map<std::string, double> seconds;
+};
+
+// The sweep's table (a row per run, a column per key) and each key's fitted exponent against the particle count,
+// then one JSON line. A key missing from any row (a stage the runs skipped) is left out.
+inline void print_scaling(const std::string& volume, const std::vector<ScalingRow>& rows,
+                          const std::vector<std::string>& keys) {
+  std::vector<std::string> present;
+  for (const auto& k : keys)
+    if (!rows.empty() && std::all_of(rows.begin(), rows.end(), [&](const ScalingRow& r) { return r.seconds.count(k); }))
+      present.push_back(k);
+  std::printf("Scaling of %s with the particle count (seconds; advection iteration: advection / iterations)\n",
+              volume.c_str());
+  std::printf("%8s %10s", "max size", "particles");
+  for (const auto& k : present) std::printf(" %*s", int(std::max<size_t>(9, k.size())), k.c_str());
+  std::printf("\n");
+  std::vector<double> xs;
+  for (const auto& r : rows) {
+    xs.push_back(r.particles);
+    std::printf("%8g %10.0f", r.max_size, r.particles);
+    for (const auto& k : present) std::printf(" %*.3g", int(std::max<size_t>(9, k.size())), r.seconds.at(k));
+    std::printf("\n");
+  }
+  std::printf("%19s", "exponent k, t ~ n^k");
+  nlohmann::json exponents = nlohmann::json::object(), json_rows = nlohmann::json::array();
+  for (const auto& k : present) {
+    std::vector<double> ys;
+    for (const auto& r : rows) ys.push_back(r.seconds.at(k));
+    const double e = loglog_slope(xs, ys);
+    std::printf(" %*s", int(std::max<size_t>(9, k.size())), exponent_cell(e).c_str());
+    exponents[k] = exponent_json(e);
+  }
+  std::printf("\n");
+  for (const auto& r : rows) json_rows.push_back({{"max_size", r.max_size}, {"particles", r.particles}, {"seconds", r.seconds}});
+  std::printf("%s\n", nlohmann::json{{"benchmark", "pipeline_scaling"}, {"volume", volume}, {"rows", json_rows},
+                                     {"exponents", exponents}}.dump().c_str());
+  std::fflush(stdout);
 }
 
 inline nlohmann::json junction_json(const mesh::JunctionError& e) {
