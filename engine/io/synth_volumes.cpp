@@ -145,11 +145,15 @@ SynthShape parse_synth_shape(const std::string& name) {
   throw Error("field 'shape': expected sphere, wedge-ball, slabs, shells or head, got '" + name + "'");
 }
 
-SynthVolume make_synth_volume(const SynthOptions& o) {
+void check_synth_options(const SynthOptions& o) {
   if (o.size < 4 || o.size > 2048) throw Error("field 'size': expected 4..2048 voxels, got '" + std::to_string(o.size) + "'");
   for (double s : o.spacing)
     if (!(s > 0) || !std::isfinite(s)) throw Error("field 'spacing': expected positive spacings");
   if (!(o.radius >= 0)) throw Error("field 'radius': expected a positive radius in voxels");
+}
+
+SynthVolume make_synth_volume(const SynthOptions& o) {
+  check_synth_options(o);
   SynthVolume out;
   LabelVolume& v = out.volume;
   v.dims = {o.size, o.size, o.size};

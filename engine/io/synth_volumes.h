@@ -59,6 +59,9 @@ struct SynthVolume {
 double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const std::array<double, 3>& p);
 
 SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells", "head"
+// Throws (naming the field) for options make_synth_volume refuses: size outside 4..2048, a spacing that is not
+// positive, a negative radius.
+void check_synth_options(const SynthOptions& o);
 SynthVolume make_synth_volume(const SynthOptions& o);
 // JSON: {"shape", "parameters", "quadruple_points": [{"materials", "position"}], "triple_curves": [{"materials",
 // "points"}]}, written atomically.

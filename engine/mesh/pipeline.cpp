@@ -166,8 +166,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization,
   // or all points meshed afresh where an insertion is degenerate) and label again.
   begin("delaunay and extraction");
-  double tetrahedralization_seconds = 0;  // the rest of the stage is the extraction
-  const auto stage_start = clock::now();
+  double tetrahedralization_seconds = 0;  // the rest of the stage (from its start) is the extraction
+  const auto stage_start = t;             // when the stage began (the last stage_done)
   auto timed = [&](auto&& step) {
     const auto s0 = clock::now();
     step();

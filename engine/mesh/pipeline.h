@@ -15,8 +15,9 @@
 // the particles, tet labels, repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh"
 // (per material: TetGen -pqAY bounded by its interface triangles, then the sliver passes; volume_mesh.h).
 // Two stages also report their steps (MeshReport::steps): "fields" = "indicator fields" + "embedding" + "sizing
-// field"; "delaunay and extraction" = "tetrahedralization" (TetGen Delaunay, then the repair's point insertions) +
-// "extraction" (tet labels, repair, interface triangles).
+// field" (and a little unmeasured work between them); "delaunay and extraction" = "tetrahedralization" (TetGen
+// Delaunay and the tets' adjacency, then the repair's point insertions or fresh tetrahedralizations) + "extraction"
+// (the rest: the point list, tet labels, repair, interface triangles).
 #include <array>
 #include <functional>
 #include <stdexcept>

@@ -521,8 +521,8 @@ void SteadyRule::after_round(uint32_t added, uint32_t deleted, uint32_t n) {
   const double net = double(added) - double(deleted), share = options_.steady_share * double(n);
   balanced_rounds_ = std::fabs(net) <= share ? balanced_rounds_ + 1 : 0;
   nets_.push_back(net);
-  const auto window = size_t(std::max(options_.steady_window, 2));
-  const bool on_average = nets_.size() >= window &&
+  const auto window = size_t(std::max(options_.steady_window, 0));
+  const bool on_average = window >= 2 && nets_.size() >= window &&
                           std::fabs(std::accumulate(nets_.end() - std::ptrdiff_t(window), nets_.end(), 0.0)) <=
                               double(window) * share;
   const bool negligible = double(added) + double(deleted) <= options_.negligible_share * double(n);

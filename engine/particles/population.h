@@ -79,8 +79,9 @@ struct PopulationOptions {
                                       // hexagonal count, at 1.15 up to 5% above it (434 of 412.7)
   double energy_tolerance = 0.05;     // settled when each feature's mean E / ideal is within this of the above ...
   double significance = 0.1;          // ... and at most this share of the particles is flagged
-  double steady_share = 0.01;         // steady: |added - deleted| below this share of n two rounds running, or
-  int steady_window = 4;              // its sum over this many rounds below this many times that share of n
+  double steady_share = 0.01;         // steady: |added - deleted| at most this share of n two rounds running, or
+  int steady_window = 4;              // |sum of (added - deleted)| over this many rounds at most this many times
+                                      // that share of n (0 or 1: no such window)
   double negligible_share = 0.001;    // ... or, at once, added + deleted at most this share of n: so few changes
                                       // settle in the next run, and another round would change as little
   int max_rounds = 20;                // add/delete rounds at most
@@ -199,11 +200,11 @@ Population add_delete(const fields::ClosestPointEmbedding& embedding, const Popu
                       std::mt19937& rng, RoundReport& report);
 
 // The steady rule (above), fed each add/delete step's counts: steady once adds and deletes have balanced out
-// (|added - deleted| within steady_share of n) two rounds running, or their sum over the last steady_window rounds
-// within steady_window x steady_share of n (a churn that swings the count up and down: on the 32^3 shells a tenth
-// of the particles were deleted and re-added every round, and the rounds ran to max_rounds, 2.9x the time for
-// meshes of the same quality over three seeds), or once a round changed at most negligible_share of n (a few holes
-// filled). It stays steady; relax then ends after one more advection run.
+// (|added - deleted| at most steady_share of n) two rounds running, or on average over the last steady_window
+// rounds (|sum of (added - deleted)| at most steady_window x steady_share x n: a churn that swings the count up and
+// down; on the 32^3 shells a tenth of the particles were deleted and re-added every round, and the rounds ran to
+// max_rounds, about 3x the time, for meshes of about the same quality over three seeds), or once a round changed at
+// most negligible_share of n (a few holes filled). It stays steady; relax then ends after one more advection run.
 class SteadyRule {
  public:
   explicit SteadyRule(const PopulationOptions& options) : options_(options) {}

@@ -146,19 +146,19 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   CHECK(contains(r.output, "    tetrahedralization"));
   for (const char* stage : {"read volume", "fields", "seeding", "advection", "delaunay and extraction", "smoothing",
                             "quality", "volume mesh", "write"})
-    CHECK_MESSAGE(j["seconds"].contains(stage), stage);
+    CHECK_MESSAGE(j.at("seconds").contains(stage), stage);
   const std::map<std::string, std::vector<std::string>> steps = {
       {"fields", {"indicator fields", "embedding", "sizing field"}},
       {"delaunay and extraction", {"tetrahedralization", "extraction"}}};
   for (const auto& [stage, parts] : steps) {
     double sum = 0;
     for (const auto& part : parts) {
-      REQUIRE_MESSAGE(j["steps"][stage].contains(part), stage, ": ", part);
-      const double s = j["steps"][stage][part].get<double>();
+      REQUIRE_MESSAGE(j.at("steps").at(stage).contains(part), stage, ": ", part);
+      const double s = j.at("steps").at(stage).at(part).get<double>();
       CHECK(s >= 0);
       sum += s;
     }
-    CHECK(sum <= j["seconds"][stage].get<double>() + 1e-9);
+    CHECK(sum <= j.at("seconds").at(stage).get<double>() + 1e-9);
   }
   const auto bad = run_tool("cpmesh mesh " + vol.string() + " --format xyz -o " + out.string());
   CHECK(bad.exit_code != 0);
@@ -181,41 +181,47 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
 TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with every stage and step; errors clear") {
   const auto r = run_tool("cpmesh-bench-pipeline --volumes sphere:28,wedge-ball:32 --no-peer --max-size 2.5");
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
-  for (const char* head : {"load", "indicator", "embedding", "sizing", "seeding", "advection", "it/rnd", "tetrahedra",
-                           "extract", "smoothing", "quality", "volume", "host MiB", "dev MiB"})
-    CHECK_MESSAGE(contains(r.output, head), head);
   std::istringstream lines(r.output);
-  std::string line;
+  std::string line, header, sphere_row;
   std::vector<nlohmann::json> rows;
-  while (std::getline(lines, line))
+  while (std::getline(lines, line)) {
     if (line.rfind("{\"benchmark\"", 0) == 0) rows.push_back(nlohmann::json::parse(line));
+    if (line.rfind("volume ", 0) == 0) header = line;
+    if (line.rfind("sphere:28 ", 0) == 0) sphere_row = line;
+  }
+  // The header names every column, and its columns line up with the rows' (right-aligned: the same length).
+  for (const char* head : {"load", "indicator", "embedding", "sizing", "seeding", "advection", "it/rnd", "delaunay",
+                           "extract", "smoothing", "quality", "volume", "rr mean", "host MiB", "dev MiB"})
+    CHECK_MESSAGE(contains(header, head), head);
+  CHECK(!sphere_row.empty());
+  CHECK(header.size() == sphere_row.size());
   REQUIRE(rows.size() == 2);
   for (const auto& j : rows) {
     INFO(j.dump());
     double stages = 0;
     for (const char* stage : {"load", "fields", "seeding", "advection", "delaunay and extraction", "smoothing",
                               "quality", "volume mesh"}) {
-      REQUIRE(j["seconds"].contains(stage));
-      CHECK(j["seconds"][stage].get<double>() >= 0);
-      stages += j["seconds"][stage].get<double>();
+      REQUIRE(j.at("seconds").contains(stage));
+      CHECK(j.at("seconds").at(stage).get<double>() >= 0);
+      stages += j.at("seconds").at(stage).get<double>();
     }
-    CHECK(stages <= j["total_s"].get<double>() + 1e-9);
+    CHECK(stages <= j.at("total_s").get<double>() + 1e-9);
     double fields = 0, delaunay = 0;
-    for (const char* step : {"indicator fields", "embedding", "sizing field"}) fields += j["steps"]["fields"][step].get<double>();
+    for (const char* step : {"indicator fields", "embedding", "sizing field"}) fields += j.at("steps").at("fields").at(step).get<double>();
     for (const char* step : {"tetrahedralization", "extraction"})
-      delaunay += j["steps"]["delaunay and extraction"][step].get<double>();
+      delaunay += j.at("steps").at("delaunay and extraction").at(step).get<double>();
     CHECK(fields > 0);
-    CHECK(fields <= j["seconds"]["fields"].get<double>() + 1e-9);
+    CHECK(fields <= j.at("seconds").at("fields").get<double>() + 1e-9);
     CHECK(delaunay > 0);
-    CHECK(delaunay <= j["seconds"]["delaunay and extraction"].get<double>() + 1e-9);
-    CHECK(j["particles"].get<int>() > 50);
-    CHECK(j["iterations"].get<int>() > 0);
-    CHECK(j["rounds"].get<int>() >= 1);
-    CHECK(j["tets"].get<int>() > 0);
-    CHECK(j["peak_host_mib"].get<double>() > 0);
-    CHECK(j["peak_device_mib"].get<double>() > 0);
-    CHECK(j["mean_radius_ratio"].get<double>() > 0.85);
-    CHECK(j["min_dihedral_deg"].get<double>() > 5);
+    CHECK(delaunay <= j.at("seconds").at("delaunay and extraction").get<double>() + 1e-9);
+    CHECK(j.at("particles").get<int>() > 50);
+    CHECK(j.at("iterations").get<int>() > 0);
+    CHECK(j.at("rounds").get<int>() >= 1);
+    CHECK(j.at("tets").get<int>() > 0);
+    CHECK(j.at("peak_host_mib").get<double>() > 0);
+    CHECK(j.at("peak_device_mib").get<double>() > 0);
+    CHECK(j.at("mean_radius_ratio").get<double>() > 0.85);
+    CHECK(j.at("min_dihedral_deg").get<double>() > 5);
   }
   CHECK(rows[1].contains("junction_error"));  // the wedge ball's analytic triple curves
   CHECK(!rows[0].contains("junction_error"));
@@ -234,18 +240,19 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
   CHECK(runs == 2);
   REQUIRE(scaling.is_object());
   INFO(scaling.dump());
-  REQUIRE(scaling["rows"].size() == 2);
-  CHECK(scaling["rows"][0]["max_size"].get<double>() == 4.0);
+  REQUIRE(scaling.at("rows").size() == 2);
+  CHECK(scaling.at("rows")[0].at("max_size").get<double>() == 4.0);
   // A smaller h, more particles (about (4 / 1.5)^2 as many on a surface).
-  CHECK(scaling["rows"][1]["particles"].get<double>() > 3 * scaling["rows"][0]["particles"].get<double>());
+  CHECK(scaling.at("rows")[1].at("particles").get<double>() > 3 * scaling.at("rows")[0].at("particles").get<double>());
   for (const char* key : {"indicator fields", "embedding", "sizing field", "seeding", "advection", "advection iteration",
                           "tetrahedralization", "extraction", "smoothing", "quality", "total"})
-    CHECK_MESSAGE(scaling["exponents"][key].is_number(), key);  // fitted (its value is timing: not tested)
-  CHECK(!scaling["exponents"].contains("volume mesh"));  // --only-surfaces: in no row
+    CHECK_MESSAGE(scaling.at("exponents").at(key).is_number(), key);  // fitted (its value is timing: not tested)
+  CHECK(!scaling.at("exponents").contains("volume mesh"));  // --only-surfaces: in no row
 
   // Every spec is checked before the first run.
   for (const auto& [volumes, says] : std::vector<std::pair<std::string, std::string>>{
-           {"sphere:24,cube:32", "got 'cube'"}, {"sphere:24,sphere:x", "field 'size'"}, {"sphere:24,nosuch.nrrd", "nosuch.nrrd"}}) {
+           {"sphere:24,cube:32", "volume 'cube:32': field 'shape'"}, {"sphere:24,sphere:x", "volume 'sphere:x': field 'size'"},
+           {"sphere:24,sphere:3000", "4..2048"}, {"sphere:24,nosuch.nrrd", "nosuch.nrrd"}}) {
     const auto bad = run_tool("cpmesh-bench-pipeline --no-peer --volumes " + volumes);
     CHECK(bad.exit_code == 1);
     CHECK_MESSAGE(contains(bad.output, says), bad.output);

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
   bool only_surfaces = false;
   double max_size = 0, min_size = 0;
   app.add_option("--device", device, "Vulkan device index or name substring");
-  app.add_option("--volumes", volumes, "shape:size (sphere, wedge-ball, slabs, shells) or volume files")
+  app.add_option("--volumes", volumes, "shape:size (sphere, wedge-ball, slabs, shells, head) or volume files")
       ->delimiter(',')
       ->capture_default_str();
   app.add_flag("--only-surfaces", only_surfaces, "Skip the volume mesh");
@@ -109,15 +109,15 @@ int main(int argc, char** argv) {
                               {"fields", "sizing field", "sizing"},
                               {"seeding", nullptr, "seeding"},
                               {"advection", nullptr, "advection"},
-                              {"delaunay and extraction", "tetrahedralization", "tetrahedra"},
+                              {"delaunay and extraction", "tetrahedralization", "delaunay"},
                               {"delaunay and extraction", "extraction", "extract"},
                               {"smoothing", nullptr, "smoothing"},
                               {"quality", nullptr, "quality"},
                               {"volume mesh", nullptr, "volume"}};
-    std::printf("Pipeline on %s (seconds per stage; advection: iterations/rounds)\n%-16s %6s", ctx.info().name.c_str(),
+    std::printf("Pipeline on %s (seconds per stage; it/rnd: advection iterations/rounds)\n%-16s %6s", ctx.info().name.c_str(),
                 "volume", "load");
     for (const Column& c : columns) std::printf(" %9s", c.head);
-    std::printf(" %7s %8s %9s %9s %9s %6s %6s %8s %14s %8s %8s\n", "it/rnd", "total s", "particles", "triangles",
+    std::printf(" %7s %8s %9s %9s %9s %7s %7s %8s %14s %8s %8s\n", "it/rnd", "total s", "particles", "triangles",
                 "tets", "rr mean", "rr min", "dihedral", "junction", "host MiB", "dev MiB");
     for (const std::string& spec : volumes) {
       // Load: reading the file, or making the synthetic volume.
@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
         if (junctions)
           je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,
                                     std::min({volume.spacing[0], volume.spacing[1], volume.spacing[2]}));
-        std::printf(" %8.2f %9zu %9zu %9zu %6.3f %6.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
+        std::printf(" %8.2f %9zu %9zu %9zu %7.3f %7.3f %8.1f %14s %8.0f %8.0f\n", total, rep.particles,
                     rep.surface.triangles, rep.volume.tets, rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio,
                     rep.volume.min_dihedral_deg, junction_cell(junctions.has_value(), je).c_str(), peak_rss_mib(), dev_mib);
         nlohmann::json j = {
@@ -237,7 +237,7 @@ int main(int argc, char** argv) {
               pje.max = pj["junction_error"]["max"].get<double>();
               pje.max_whole_edge = pj["junction_error"].value("max_whole_edge", 0.0);
             }
-            std::printf(" %8.2f %9s %9d %9d %6.3f %6.3f %8.1f %14s\n", pj["total_s"].get<double>(), "-",
+            std::printf(" %8.2f %9s %9d %9d %7.3f %7.3f %8.1f %14s\n", pj["total_s"].get<double>(), "-",
                         pj["triangles"].get<int>(), pj["tets"].get<int>(), pj["mean_radius_ratio"].get<double>(),
                         pj["min_radius_ratio"].get<double>(), pj["min_dihedral_deg"].get<double>(),
                         junction_cell(pj.contains("junction_error"), pje).c_str());

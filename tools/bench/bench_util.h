@@ -30,25 +30,31 @@ inline double peak_rss_mib() {
 }
 
 // A benchmark volume: "shape:size" (sphere, wedge-ball, slabs, shells, head; cpmesh-synth's volumes) or a volume
-// file. The synthetic volume's options, or nothing for a file; a bad shape or size throws, naming the spec.
+// file (an existing path is always a file). The synthetic volume's options, or nothing for a file; a bad shape or
+// size throws, naming the spec.
 inline std::optional<io::SynthOptions> synth_spec(const std::string& spec) {
   const auto colon = spec.find(':');
-  if (colon == std::string::npos || spec.find('.') != std::string::npos) return std::nullopt;
-  io::SynthOptions o;
-  o.shape = io::parse_synth_shape(spec.substr(0, colon));
-  const std::string size = spec.substr(colon + 1);
-  char* end = nullptr;
-  const long n = std::strtol(size.c_str(), &end, 10);
-  if (size.empty() || *end != '\0' || n < 8 || n > 4096)
-    throw std::invalid_argument("volume '" + spec + "': field 'size': expected voxels per axis, 8 to 4096, got '" +
-                                size + "'");
-  o.size = n;
-  return o;
+  if (colon == std::string::npos || spec.find('.') != std::string::npos || std::filesystem::exists(spec))
+    return std::nullopt;
+  try {
+    io::SynthOptions o;
+    o.shape = io::parse_synth_shape(spec.substr(0, colon));
+    const std::string size = spec.substr(colon + 1);
+    char* end = nullptr;
+    const long long n = std::strtoll(size.c_str(), &end, 10);
+    if (size.empty() || *end != '\0') throw std::invalid_argument("field 'size': expected voxels per axis, got '" + size + "'");
+    o.size = n;
+    io::check_synth_options(o);  // the range make_synth_volume takes
+    return o;
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("volume '" + spec + "': " + e.what());
+  }
 }
 
-// Checks a spec before any run starts: a synthetic volume's shape and size, or that the file exists.
+// Checks a spec before any run starts: a synthetic volume's shape and size, or that the file is a regular file (not
+// that it reads as a volume).
 inline void check_volume_spec(const std::string& spec) {
-  if (!synth_spec(spec) && !std::filesystem::exists(spec))
+  if (!synth_spec(spec) && !std::filesystem::is_regular_file(spec))
     throw std::invalid_argument("volume '" + spec + "': no such file (or shape:size, e.g. wedge-ball:128)");
 }
 

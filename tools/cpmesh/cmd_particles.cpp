@@ -31,9 +31,9 @@ void add_population_options(CLI::App* sub, particles::PopulationOptions& p) {
   sub->add_option("--significance", p.significance, "... and at most this share of particles is flagged")->capture_default_str();
   sub->add_option("--steady-share", p.steady_share, "Steady when |added - deleted| is below this share two rounds running")->capture_default_str();
   sub->add_option("--steady-window", p.steady_window,
-                  "... or its sum over this many rounds below this many times that share (a churn that swings the "
-                  "count up and down)")
-      ->check(CLI::Range(2, 1000))
+                  "... or |sum of (added - deleted)| over this many rounds below this many times that share (a "
+                  "churn that swings the count up and down; 0: off)")
+      ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   sub->add_option("--negligible-share", p.negligible_share,
                   "... or at once when added + deleted is at most this share (the next run is the last)")
