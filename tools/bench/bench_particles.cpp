@@ -116,7 +116,7 @@ void run_scaling(gpu::Context& ctx, fields::FieldsResult& F, std::vector<uint32_
 // Host memory of the fields per interface voxel (a voxel with a 6-neighbour of another label): what grows with the
 // interface area rather than the volume.
 void fields_memory_row(const std::string& spec) {
-  const auto vol = bench::load_volume_spec(spec);
+  const auto vol = bench::load_volume_spec(spec).volume;
   const auto grid = fields::grid_of(vol);
   const auto F = fields::build_fields(grid, vol.labels.data());
   const uint64_t interface_voxels = F.report.boundary_voxels;

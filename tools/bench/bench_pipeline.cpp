@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
     for (const std::string& spec : volumes) {
       // Load: reading the file, or making the synthetic volume.
       const auto load_start = std::chrono::steady_clock::now();
-      const auto volume = bench::load_volume_spec(spec);
+      const auto [volume, junctions] = bench::load_volume_spec(spec);
       const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
       std::vector<bench::ScalingRow> scaling;  // with --sweep-max-size: one per run that finished
       for (const double h_max : sweep.empty() ? std::vector<double>{max_size} : sweep) {
@@ -159,18 +159,17 @@ int main(int argc, char** argv) {
         const auto& rep = r.report;
         std::printf("%-16s %6.2f", name.c_str(), load_seconds);
         nlohmann::json seconds = {{"load", load_seconds}}, steps = nlohmann::json::object();
-        for (const auto& [name, sec] : rep.seconds) seconds[name] = sec;
+        for (const auto& [stage, sec] : rep.seconds) seconds[stage] = sec;
         for (const auto& step : rep.steps) steps[step.stage][step.step] = step.seconds;
         for (const Column& c : columns) {
-          const nlohmann::json& in = c.step ? steps.value(c.stage, nlohmann::json::object()) : seconds;
+          const nlohmann::json* in = !c.step ? &seconds : steps.contains(c.stage) ? &steps.at(c.stage) : nullptr;
           const char* key = c.step ? c.step : c.stage;
-          if (in.contains(key)) std::printf(" %9.2f", in[key].get<double>());
+          if (in && in->contains(key)) std::printf(" %9.2f", in->at(key).get<double>());
           else std::printf(" %9s", "-");  // a stage the run did not reach or skipped (the volume mesh)
         }
         const std::string it_rounds = std::to_string(rep.iterations) + "/" + std::to_string(rep.rounds);
         std::printf(" %7s", it_rounds.c_str());
         const double dev_mib = double(ctx.memory_stats().peak_bytes) / 1048576.0;
-        const auto junctions = bench::synth_junctions(spec);
         mesh::JunctionError je;
         if (junctions)
           je = mesh::junction_error(*junctions, r.surfaces.vertices, r.surfaces.triangles, r.surfaces.triangle_pair,

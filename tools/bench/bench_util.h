@@ -58,20 +58,23 @@ inline void check_volume_spec(const std::string& spec) {
     throw std::invalid_argument("volume '" + spec + "': no such file (or shape:size, e.g. wedge-ball:128)");
 }
 
-inline io::LabelVolume load_volume_spec(const std::string& spec) {
-  if (const auto o = synth_spec(spec)) {
-    auto v = io::make_synth_volume(*o).volume;
-    v.source = spec;
-    return v;
-  }
-  return io::read_label_volume(spec);
-}
+// A loaded benchmark volume, with the analytic junctions where it has them (the synthetic wedge ball's), made once.
+struct BenchVolume {
+  io::LabelVolume volume;
+  std::optional<io::Junctions> junctions;
+};
 
-// The analytic junctions of a synthetic volume spec (the wedge ball has some), or nothing for files.
-inline std::optional<io::Junctions> synth_junctions(const std::string& spec) {
-  const auto o = synth_spec(spec);
-  if (!o || o->shape != io::SynthShape::wedge_ball) return std::nullopt;
-  return io::make_synth_volume(*o).junctions;
+inline BenchVolume load_volume_spec(const std::string& spec) {
+  BenchVolume out;
+  if (const auto o = synth_spec(spec)) {
+    auto synth = io::make_synth_volume(*o);
+    out.volume = std::move(synth.volume);
+    out.volume.source = spec;
+    if (o->shape == io::SynthShape::wedge_ball) out.junctions = std::move(synth.junctions);
+    return out;
+  }
+  out.volume = io::read_label_volume(spec);
+  return out;
 }
 
 // Least-squares slope of log y against log x: the exponent k of y ~ x^k. NaN with fewer than two points or one x.

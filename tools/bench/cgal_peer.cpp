@@ -49,7 +49,8 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const cpmesh::io::LabelVolume vol = cpmesh::bench::load_volume_spec(spec);
+    const auto loaded = cpmesh::bench::load_volume_spec(spec);
+    const cpmesh::io::LabelVolume& vol = loaded.volume;
     const double voxel = std::min({vol.spacing[0], vol.spacing[1], vol.spacing[2]});
     _image* img = _createImage(size_t(vol.dims[0]), size_t(vol.dims[1]), size_t(vol.dims[2]), 1, vol.spacing[0],
                                vol.spacing[1], vol.spacing[2], 2, WK_FIXED, SGN_UNSIGNED);
@@ -104,9 +105,10 @@ int main(int argc, char** argv) {
       ++cells;
     }
     std::string junction;
-    if (const auto j = cpmesh::bench::synth_junctions(spec))
+    if (loaded.junctions)
       junction = ",\"junction_error\":" +
-                 cpmesh::bench::junction_json(cpmesh::mesh::junction_error(*j, vertices, triangles, pairs, voxel)).dump();
+                 cpmesh::bench::junction_json(
+                     cpmesh::mesh::junction_error(*loaded.junctions, vertices, triangles, pairs, voxel)).dump();
     std::printf("{\"benchmark\":\"pipeline_peer\",\"peer\":\"CGAL Mesh_3 %s\",\"volume\":\"%s\",\"facet_size_voxels\":%g,"
                 "\"total_s\":%.4f,\"triangles\":%zu,\"tets\":%zu,\"vertices\":%zu,\"mean_radius_ratio\":%.4f,"
                 "\"min_radius_ratio\":%.4f,\"min_dihedral_deg\":%.3f%s}\n",
