@@ -306,6 +306,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       rep.sliver_split = meshes.sliver_split;
       rep.volume_one_run_because = meshes.one_run_because;
       rep.volume_runs = meshes.runs;
+      rep.volume_unsplit_because = meshes.unsplit_because;
+      rep.volume_separator_points = meshes.separator_points;
       const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.

@@ -9,7 +9,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <tbb/info.h>
+
 #include "mesh/child_process.h"
+#include "mesh/split_material.h"
 
 namespace cpmesh::mesh {
 
@@ -20,6 +23,9 @@ struct Job {
   std::vector<std::array<uint32_t, 3>> triangles;
   std::vector<Region> regions;
   std::vector<glm::dvec3> holes;
+  // A piece of a split material (split_material.h): its number of how many, and the volume its tets must fill.
+  uint16_t piece = 0, pieces = 1;
+  double volume = 0;
 };
 
 // One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
@@ -45,6 +51,19 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
   const auto t1 = clock::now();
   // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
   V.points.insert(V.points.begin(), points.begin(), points.end());
+  if (job.pieces > 1) {
+    // A piece has no region seed (a component cut by a plane has none on one side): all of it is the material. Its
+    // tets must fill the volume its boundary encloses, or the separator went astray near a gap (split_material.h).
+    V.region.assign(V.tets.size(), int(job.material) + 1);
+    double volume = 0;
+    for (const auto& t : V.tets) {
+      const glm::dvec3 &a = V.points[t[0]], &b = V.points[t[1]], &c = V.points[t[2]], &d = V.points[t[3]];
+      volume += std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6;
+    }
+    if (!(std::fabs(volume - job.volume) <= 1e-9 * std::fabs(job.volume) + 1e-12))
+      throw std::runtime_error(what + ": its tets fill " + std::to_string(volume) + " of the " +
+                               std::to_string(job.volume) + " its boundary encloses");
+  }
   r.improvement = improve_tets(V.points, V.tets, points.size(), options.min_dihedral, options.max_radius_edge);
   // What moving vertices left: slivers among kept surface vertices. Refill them around a new vertex, then let the
   // vertex pass place the new vertices among their neighbours.
@@ -55,7 +74,8 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
     r.improvement.moves += again.moves;
   }
   r.runs = {{job.material, std::chrono::duration<double>(t1 - t0).count(),
-             std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size()}};
+             std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size(),
+             job.piece, job.pieces}};
   V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));
   return r;
 }
@@ -88,51 +108,142 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     for (uint16_t m : pair[i])
       if (m < job_of.size() && job_of[m] >= 0) jobs[size_t(job_of[m])].triangles.push_back(triangles[i]);
 
-  // Largest boundary first, so that the last run to start is a small one.
-  std::vector<size_t> order(jobs.size());
-  std::iota(order.begin(), order.end(), size_t(0));
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return jobs[a].triangles.size() > jobs[b].triangles.size(); });
-  std::vector<MaterialMeshes> parts(jobs.size());
-  std::string one_run_because;
-  std::vector<std::string> errors(jobs.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t k = range.begin(); k != range.end(); ++k) {
-      const Job& job = jobs[order[k]];
-      const std::string what = "volume mesh of material " + std::to_string(labels[job.material]);
-      try {
-        parts[order[k]] = run_job(points, job, options, what);
-      } catch (const std::exception& e) {
-        const std::string message = e.what();
-        errors[order[k]] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
-      }
+  // Large materials are cut into pieces so that the runs fill the cores: each material gets runs in proportion to
+  // its boundary, as long as every piece keeps options.min_piece_triangles.
+  const size_t runs = options.runs > 0 ? options.runs : size_t(std::max(1, tbb::info::default_concurrency()));
+  size_t boundary_total = 0;
+  for (const Job& job : jobs) boundary_total += job.triangles.size();
+  std::vector<MaterialSplit> splits(jobs.size());
+  std::vector<size_t> to_split;
+  for (size_t j = 0; j < jobs.size() && runs > jobs.size(); ++j) {
+    const size_t n = jobs[j].triangles.size();
+    const double share = double(runs) * double(n) / double(std::max<size_t>(boundary_total, 1));
+    const size_t k = std::min(size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1));
+    if (k >= 2) {
+      splits[j].pieces.resize(k);  // how many asked, until split_material fills them
+      to_split.push_back(j);
     }
-  }, tbb::simple_partitioner());
+  }
+  std::vector<std::string> unsplit(jobs.size());
+  tbb::parallel_for(size_t(0), to_split.size(), [&](size_t i) {
+    const size_t j = to_split[i];
+    const uint16_t m = jobs[j].material;
+    std::vector<std::array<uint32_t, 3>> outward;  // the boundary with normals out of the material
+    for (size_t t = 0; t < triangles.size(); ++t)
+      if (pair[t][0] == m) outward.push_back(triangles[t]);
+      else if (pair[t][1] == m) outward.push_back({triangles[t][0], triangles[t][2], triangles[t][1]});
+    try {
+      splits[j] = split_material(points, outward, int(splits[j].pieces.size()), uint32_t(points.size()));
+    } catch (const std::exception& e) {
+      splits[j] = {};
+      splits[j].refused = e.what();
+    }
+    if (!splits[j].refused.empty())
+      unsplit[j] = "material " + std::to_string(labels[m]) + " meshed whole: " + splits[j].refused;
+  });
+  // All points: the caller's, then each split's separator points (renumbered after the splits before it).
+  std::vector<glm::dvec3> all_points = points;
+  std::vector<Job> runs_of;  // the TetGen runs: whole materials and pieces
+  std::vector<size_t> job_of_run;
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    MaterialSplit& split = splits[j];
+    if (split.pieces.empty() || !split.refused.empty()) {
+      runs_of.push_back(jobs[j]);
+      job_of_run.push_back(j);
+      continue;
+    }
+    const auto shift = uint32_t(all_points.size() - points.size());
+    all_points.insert(all_points.end(), split.points.begin(), split.points.end());
+    for (size_t p = 0; p < split.pieces.size(); ++p) {
+      Job piece{jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
+                uint16_t(split.pieces.size()), split.volumes[p]};
+      for (auto& t : piece.triangles)
+        for (auto& v : t) v = v < points.size() ? v : v + shift;
+      // The material's own seeds are holes for nothing here; other materials' seeds carve their cavities.
+      runs_of.push_back(std::move(piece));
+      job_of_run.push_back(j);
+    }
+  }
+
+  std::vector<MaterialMeshes> parts(runs_of.size());
+  std::vector<std::string> errors(runs_of.size());
+  auto run_all = [&](const std::vector<size_t>& which) {
+    // Largest boundary first, so that the last run to start is a small one.
+    std::vector<size_t> order = which;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return runs_of[a].triangles.size() > runs_of[b].triangles.size(); });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t k = range.begin(); k != range.end(); ++k) {
+        const Job& job = runs_of[order[k]];
+        std::string what = "volume mesh of material " + std::to_string(labels[job.material]);
+        if (job.pieces > 1) what += ", piece " + std::to_string(job.piece + 1) + " of " + std::to_string(job.pieces);
+        try {
+          parts[order[k]] = run_job(all_points, job, options, what);
+          errors[order[k]].clear();
+        } catch (const std::exception& e) {
+          const std::string message = e.what();
+          errors[order[k]] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
+        }
+      }
+    }, tbb::simple_partitioner());
+  };
+  std::vector<size_t> everything(runs_of.size());
+  std::iota(everything.begin(), everything.end(), size_t(0));
+  run_all(everything);
+  // A material with a failed piece is meshed whole instead: its pieces' runs are dropped, one run takes their place.
+  std::vector<uint8_t> drop(runs_of.size(), 0);
+  std::vector<size_t> again;
+  for (size_t r = 0; r < runs_of.size(); ++r) {
+    if (errors[r].empty() || runs_of[r].pieces == 1) continue;
+    const size_t j = job_of_run[r];
+    if (!unsplit[j].empty()) continue;
+    unsplit[j] = "material " + std::to_string(labels[jobs[j].material]) + " meshed whole: " + errors[r];
+    for (size_t q = 0; q < runs_of.size(); ++q)
+      if (job_of_run[q] == j) drop[q] = 1;
+    again.push_back(runs_of.size());
+    runs_of.push_back(jobs[j]);
+    job_of_run.push_back(j);
+  }
+  parts.resize(runs_of.size());
+  errors.resize(runs_of.size());
+  drop.resize(runs_of.size(), 0);
+  run_all(again);
+  // Runs in material order (pieces in their order); a dropped piece is left out.
+  std::vector<size_t> kept;
+  for (size_t r = 0; r < runs_of.size(); ++r)
+    if (!drop[r]) kept.push_back(r);
+  std::stable_sort(kept.begin(), kept.end(), [&](size_t a, size_t b) { return job_of_run[a] < job_of_run[b]; });
+  std::string one_run_because;
   std::string failed;
-  for (const auto& e : errors)
-    if (!e.empty()) failed += (failed.empty() ? "" : "; ") + e;
+  for (size_t r : kept)
+    if (!errors[r].empty()) failed += (failed.empty() ? "" : "; ") + errors[r];
+  std::vector<MaterialMeshes> merged;
   if (!failed.empty()) {
     // A material whose boundary is not closed (a thin layer's interface with a hole) leaks into the outside when
     // meshed alone, and TetGen drops its vertices; with every interface present the leak only reaches a neighbour's
     // region. So a failed material sends the whole mesh to one run over all interfaces, as one job.
     Job all{UINT16_MAX, triangles, seeds, {}};
-    MaterialMeshes r;
     try {
-      r = run_job(points, all, options, "volume mesh of all materials in one run");
+      merged.push_back(run_job(points, all, options, "volume mesh of all materials in one run"));
     } catch (const std::exception& e) {
       throw std::runtime_error(failed + "; then " + e.what());
     }
-    parts.assign(1, std::move(r));
+    all_points = points;
     one_run_because = failed;
+  } else {
+    for (size_t r : kept) merged.push_back(std::move(parts[r]));
   }
-  // Merge in material order: each run's added points after the ones before it.
+  // Merge: each run's added points after the ones before it.
   MaterialMeshes out;
   out.one_run_because = one_run_because;
+  for (const auto& u : unsplit)
+    if (!u.empty()) out.unsplit_because.push_back(u);
+  out.separator_points = all_points.size() - points.size();
   Tets& T = out.tets;
-  T.points = points;
+  T.points = all_points;
   bool first = true;
-  for (const MaterialMeshes& r : parts) {
-    const auto n = uint32_t(points.size()), base = uint32_t(T.points.size());
+  for (const MaterialMeshes& r : merged) {
+    const auto n = uint32_t(all_points.size()), base = uint32_t(T.points.size());
     T.points.insert(T.points.end(), r.tets.points.begin(), r.tets.points.end());
     for (auto tet : r.tets.tets) {
       for (auto& v : tet) v = v < n ? v : base + (v - n);
@@ -150,6 +261,22 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     out.sliver_split.inserted += r.sliver_split.inserted;
     out.sliver_split.failed += r.sliver_split.failed;
     first = false;
+  }
+  if (out.separator_points > 0) {
+    // The pieces kept their separators as they were; now that the pieces are one mesh, the sliver passes may move
+    // the separators' points and flip or refill across them (only the interface triangles are kept).
+    const auto seam = improve_tets(T.points, T.tets, points.size(), options.min_dihedral, options.max_radius_edge);
+    out.improvement.moves += seam.moves;
+    out.improvement.min_dihedral_after = seam.min_dihedral_after;
+    const auto split = split_slivers(T.points, T.tets, T.region, triangles, options.min_dihedral, options.max_radius_edge);
+    out.sliver_split.flips += split.flips;
+    out.sliver_split.inserted += split.inserted;
+    out.sliver_split.failed = split.failed;
+    if (split.inserted + split.flips > 0) {
+      const auto again = improve_tets(T.points, T.tets, points.size(), options.min_dihedral, options.max_radius_edge);
+      out.improvement.moves += again.moves;
+      out.improvement.min_dihedral_after = again.min_dihedral_after;
+    }
   }
   return out;
 }

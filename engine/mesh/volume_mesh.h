@@ -36,6 +36,7 @@ struct MaterialRunTiming {
   uint16_t material = 0;  // index into labels; UINT16_MAX: the one run over all materials
   double tetgen = 0, slivers = 0;
   size_t tets = 0, added_points = 0;
+  uint16_t piece = 0, pieces = 1;  // of a material cut into pieces (split_material.h)
 };
 
 struct MaterialMeshes {
@@ -44,6 +45,8 @@ struct MaterialMeshes {
   TetImproveReport improvement;  // smallest dihedral angles over all materials, moves summed
   SliverSplitReport sliver_split;
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
+  std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
+  size_t separator_points = 0;               // the lattice points of the separators (split_material.h)
 };
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,

@@ -79,6 +79,11 @@ int main(int argc, char** argv) {
   uint32_t seed = mesh::MeshOptions{}.population.seed;
   app.add_option("--seed", seed, "Random seed of the particle population (same seed, same result)")
       ->capture_default_str();
+  size_t volume_runs = mesh::MeshOptions{}.volume.runs;
+  app.add_option("--volume-runs", volume_runs,
+                 "Volume mesh: TetGen runs to aim at, large materials cut into pieces (0: one per core; 1: one per "
+                 "material)")
+      ->capture_default_str();
   double peer_facet = 1.5;
   bool no_peer = false, peer_match = false;
   app.add_option("--peer-facet-size", peer_facet, "CGAL peer: facet size in voxels")->capture_default_str();
@@ -136,6 +141,7 @@ int main(int argc, char** argv) {
         options.advection.neighbour_skin = skin;
         options.max_particles = max_particles;
         options.population.seed = seed;
+        options.volume.runs = volume_runs;
         const auto t0 = std::chrono::steady_clock::now();
         mesh::MeshResult r;
         try {
@@ -197,6 +203,7 @@ int main(int argc, char** argv) {
           j["volume_runs"].push_back({{"material", run.material < rep.materials.size()
                                                        ? nlohmann::json(rep.materials[run.material].label)
                                                        : nlohmann::json("all")},
+                                      {"piece", run.piece}, {"pieces", run.pieces},
                                       {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
         std::cout << j.dump() << '\n';
         if (!sweep.empty()) {

@@ -71,6 +71,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(0.0, 18.0))
       ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
+  sub->add_option("--volume-runs", m.volume.runs,
+                  "Volume mesh: TetGen runs to aim at in parallel, materials with large boundaries cut into pieces "
+                  "by planes (0: one per core; 1: one run per material)")
+      ->capture_default_str();
   sub->add_option("--junction-protection", m.junction_protection,
                   "Leave out interface particles closer than this x h to a triple curve or quadruple point of their "
                   "interface (0: off); keeps junction triangles from degenerating")
@@ -214,8 +218,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               j["volume_mesh"]["runs"].push_back(
                   {{"label", run.material < rep.materials.size() ? nlohmann::json(rep.materials[run.material].label)
                                                                  : nlohmann::json("all")},
+                   {"piece", run.piece}, {"pieces", run.pieces},
                    {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets},
                    {"added_points", run.added_points}});
+            j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
+            j["volume_mesh"]["unsplit_because"] = rep.volume_unsplit_because;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
             io::write_atomically(dir + "report.json", [&](std::ostream& out) { out << j.dump(2) << '\n'; });
 
@@ -257,12 +264,14 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
                             rep.sliver_split.flips, rep.sliver_split.inserted, rep.volume.max_radius_edge);
                 for (const auto& run : rep.volume_runs) {
-                  const std::string who = run.material < rep.materials.size()
-                                              ? "material " + std::to_string(rep.materials[run.material].label)
-                                              : std::string("all materials");
+                  std::string who = run.material < rep.materials.size()
+                                        ? "material " + std::to_string(rep.materials[run.material].label)
+                                        : std::string("all materials");
+                  if (run.pieces > 1) who += " " + std::to_string(run.piece + 1) + "/" + std::to_string(run.pieces);
                   std::printf("    %-16s %10zu tets  TetGen %7.2f s, sliver passes %6.2f s\n", who.c_str(), run.tets,
                               run.tetgen, run.slivers);
                 }
+                for (const auto& why : rep.volume_unsplit_because) std::printf("    %s\n", why.c_str());
               } else
                 std::printf("  volume mesh not made: %s\n", rep.volume_error.c_str());
             }

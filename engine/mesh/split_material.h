@@ -1,0 +1,50 @@
+#pragma once
+// Cutting one material into pieces that TetGen meshes on separate cores (issue 9: one TetGen run per material kept 4
+// of 16 cores busy on the paper-size head, its largest run 79 s).
+//
+// The pieces lie between cut planes across the material's longest extent. Each is bounded by the material's
+// interface triangles on its side and by a separator surface that the pieces on either side of a plane both keep as
+// it is (TetGen -Y), so their tets meet face to face and no point is added on it. The separator comes from one
+// Delaunay tetrahedralization of the boundary's vertices and a triangular lattice of points on each plane (inside
+// the material, kept clear of its boundary): the boundary triangles are Delaunay faces there (the restricted
+// Delaunay triangles of the particles; after the smoothing all but a few in 10^4 still are), so a flood from them
+// across the other faces tells which tets lie inside the material. Each inside tet belongs to the piece that holds
+// its centroid, and the separator is the faces between inside tets of different pieces: the lattice's own
+// triangles in the open, Delaunay faces joining lattice and boundary points near the boundary. Quality is TetGen's
+// business, as for a whole material: it refines each piece up to its fixed boundary.
+//
+// It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
+// pieces: a boundary that is not closed, a plane that crosses no boundary triangle, a separator face near a place
+// where the flood is in doubt (a boundary triangle that is not a Delaunay face, where the inside and the outside
+// meet), a piece whose boundary is not closed.
+//
+// Inputs:  points     every point, in the caller's numbering (the boundary's vertices among them)
+//          boundary   the material's interface triangles, oriented with their normals out of the material
+//          pieces     how many pieces (>= 2): the planes lie at quantiles of the boundary's vertices, so the pieces'
+//                     boundaries are about equally large
+//          first_new  the number the first new point gets (the caller appends MaterialSplit::points there)
+// Outputs: MaterialSplit
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cpmesh::mesh {
+
+struct MaterialSplit {
+  std::vector<glm::dvec3> points;                            // the separators' lattice points, from first_new on
+  std::vector<std::vector<std::array<uint32_t, 3>>> pieces;  // each piece's closed boundary, boundary triangles first,
+                                                             // oriented out of the piece
+  std::vector<double> volumes;  // each piece's enclosed volume (of its oriented boundary): its tets must fill it
+  size_t separator_triangles = 0;
+  int axis = 0;                 // the planes' normal (0: x, 1: y, 2: z)
+  std::vector<double> planes;   // where they cut that axis
+  std::string refused;          // not empty: why the material was not split (pieces and points are then empty)
+};
+
+MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& boundary,
+                             int pieces, uint32_t first_new);
+
+}  // namespace cpmesh::mesh

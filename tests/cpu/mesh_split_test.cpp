@@ -1,0 +1,195 @@
+// Cutting a material into pieces for parallel TetGen runs (split_material.h) and the volume mesh made of the pieces
+// (volume_mesh.h): the pieces are closed, fill the material exactly, share their separators and conform to the
+// interfaces as the whole-material runs do.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "mesh/quality.h"
+#include "mesh/split_material.h"
+#include "mesh/volume_mesh.h"
+
+using namespace cpmesh;
+
+namespace {
+
+// An icosphere of radius r about the origin: `levels` subdivisions of the icosahedron, normals pointing inward when
+// `inward`, each vertex moved radially by up to `jitter` x its edge length (seeded), which leaves some triangles no
+// Delaunay faces of the vertices.
+struct Sphere {
+  std::vector<glm::dvec3> points;
+  std::vector<std::array<uint32_t, 3>> triangles;
+};
+
+Sphere icosphere(double r, int levels, bool inward, double jitter = 0, uint32_t seed = 1) {
+  const double t = (1 + std::sqrt(5.0)) / 2;
+  Sphere s;
+  s.points = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+              {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  s.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
+                 {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  for (int l = 0; l < levels; ++l) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto middle = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      const auto [it, added] = mid.emplace(key, uint32_t(s.points.size()));
+      if (added) s.points.push_back((s.points[a] + s.points[b]) / 2.0);
+      return it->second;
+    };
+    std::vector<std::array<uint32_t, 3>> finer;
+    for (const auto& f : s.triangles) {
+      const uint32_t ab = middle(f[0], f[1]), bc = middle(f[1], f[2]), ca = middle(f[2], f[0]);
+      finer.insert(finer.end(), {{f[0], ab, ca}, {f[1], bc, ab}, {f[2], ca, bc}, {ab, bc, ca}});
+    }
+    s.triangles = std::move(finer);
+  }
+  const double edge = r * 1.05 / double(1 << levels);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-jitter * edge, jitter * edge);
+  for (auto& p : s.points) p = glm::normalize(p) * (r + u(rng));
+  if (inward)
+    for (auto& f : s.triangles) std::swap(f[1], f[2]);
+  return s;
+}
+
+double enclosed_volume(const std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 3>>& T) {
+  double v = 0;
+  for (const auto& t : T) v += glm::dot(P[t[0]], glm::cross(P[t[1]], P[t[2]])) / 6;
+  return v;
+}
+
+double tet_volume(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
+  return std::fabs(glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]))) / 6;
+}
+
+}  // namespace
+
+TEST_CASE("split_material: a sphere in three pieces, closed, sharing their separators, filling it exactly") {
+  const Sphere s = icosphere(10.0, 4, false);
+  const auto split = mesh::split_material(s.points, s.triangles, 3, uint32_t(s.points.size()));
+  REQUIRE(split.refused.empty());
+  REQUIRE(split.pieces.size() == 3);
+  REQUIRE(split.planes.size() == 2);
+  CHECK(split.separator_triangles > 0);
+  std::vector<glm::dvec3> all = s.points;
+  all.insert(all.end(), split.points.begin(), split.points.end());
+  // The planes cut the longest extent (here any axis) at about the thirds of the vertices.
+  CHECK(split.planes[0] < 0);
+  CHECK(split.planes[1] > 0);
+  for (const auto& p : split.points)  // the lattice points lie on the planes
+    CHECK((p[split.axis] == split.planes[0] || p[split.axis] == split.planes[1]));
+  std::map<std::array<uint32_t, 3>, int> used;  // oriented face -> count over the pieces
+  size_t boundary = 0;
+  double sum = 0;
+  for (size_t p = 0; p < 3; ++p) {
+    CAPTURE(p);
+    CHECK(mesh::odd_edges(split.pieces[p]) == 0);
+    CHECK(split.volumes[p] == doctest::Approx(enclosed_volume(all, split.pieces[p])).epsilon(1e-12));
+    CHECK(split.volumes[p] > 0.2 * enclosed_volume(s.points, s.triangles));
+    sum += split.volumes[p];
+    for (const auto& f : split.pieces[p]) {
+      boundary += std::find(s.triangles.begin(), s.triangles.end(), f) != s.triangles.end();
+      ++used[f];
+    }
+    // TetGen fills each piece exactly, keeping its boundary (-Y).
+    const mesh::Tets V = mesh::constrained_quality(all, split.pieces[p], {}, {}, mesh::QualityOptions{});
+    double filled = 0;
+    for (const auto& t : V.tets) filled += tet_volume(V.points, t);
+    CHECK(filled == doctest::Approx(split.volumes[p]).epsilon(1e-9));
+  }
+  CHECK(boundary == s.triangles.size());  // every boundary triangle in exactly one piece
+  CHECK(sum == doctest::Approx(enclosed_volume(s.points, s.triangles)).epsilon(1e-12));
+  // Each separator triangle bounds two pieces, once each way round.
+  for (const auto& [f, n] : used) {
+    const bool on_boundary = std::find(s.triangles.begin(), s.triangles.end(), f) != s.triangles.end();
+    CHECK(n == 1);
+    if (!on_boundary) CHECK(used.count({f[0], f[2], f[1]}) == 1);
+  }
+}
+
+TEST_CASE("split_material: refuses an open boundary and a single piece") {
+  Sphere s = icosphere(5.0, 2, false);
+  CHECK(!mesh::split_material(s.points, s.triangles, 1, uint32_t(s.points.size())).refused.empty());
+  s.triangles.pop_back();
+  const auto split = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()));
+  CHECK(split.refused.find("not closed") != std::string::npos);
+  CHECK(split.pieces.empty());
+  CHECK(split.points.empty());
+}
+
+TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same volumes, conforming, slivers fixed") {
+  // Material 1 between spheres of radius 10 and 4, material 2 inside; the inner sphere is a cavity that the pieces
+  // of material 1 must carve out with material 2's seed. Jittered spheres leave boundary triangles that are no
+  // Delaunay faces: the split must see them (or refuse) and never make a wrong mesh.
+  for (const double jitter : {0.0, 0.15}) {
+    CAPTURE(jitter);
+    const Sphere outer = icosphere(10.0, 4, true, jitter, 3), inner = icosphere(4.0, 3, true, jitter, 4);
+    std::vector<glm::dvec3> points = outer.points;
+    std::vector<std::array<uint32_t, 3>> triangles = outer.triangles;
+    std::vector<std::array<uint16_t, 2>> pair(outer.triangles.size(), {0, 1});
+    const auto base = uint32_t(points.size());
+    points.insert(points.end(), inner.points.begin(), inner.points.end());
+    for (auto t : inner.triangles) {
+      for (auto& v : t) v += base;
+      triangles.push_back(t);
+      pair.push_back({1, 2});
+    }
+    const std::vector<mesh::Region> seeds = {{glm::dvec3(7.0, 0.0, 0.0), 2}, {glm::dvec3(0.0), 3}};
+    const std::vector<uint16_t> labels = {0, 1, 2};
+    mesh::QualityOptions options;
+    options.runs = 1;
+    const auto whole = mesh::mesh_materials(points, triangles, pair, seeds, labels, options);
+    options.runs = 4;
+    options.min_piece_triangles = 1000;
+    const auto cut = mesh::mesh_materials(points, triangles, pair, seeds, labels, options);
+    CHECK(whole.runs.size() == 2);
+    size_t pieces = 0;
+    for (const auto& run : cut.runs) pieces += run.material == 1 && run.pieces > 1;
+    MESSAGE("jitter " << jitter << ": " << pieces << " pieces of material 1; " << cut.tets.tets.size() << " tets against "
+                      << whole.tets.tets.size() << " whole; min dihedral " << cut.improvement.min_dihedral_after
+                      << (cut.unsplit_because.empty() ? "" : "; " + cut.unsplit_because[0]));
+    if (jitter == 0.0) {
+      CHECK(pieces >= 2);
+      CHECK(cut.unsplit_because.empty());
+      CHECK(cut.separator_points > 0);
+    }
+    // Volumes per material equal the whole runs' (and the surfaces' enclosed volumes).
+    for (const auto* r : {&whole, &cut}) {
+      std::map<int, double> volume;
+      std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;
+      const mesh::Tets& T = r->tets;
+      REQUIRE(T.region.size() == T.tets.size());
+      for (size_t i = 0; i < T.tets.size(); ++i) {
+        volume[T.region[i]] += tet_volume(T.points, T.tets[i]);
+        for (int c = 0; c < 4; ++c) {
+          std::array<uint32_t, 3> f = {T.tets[i][size_t((c + 1) % 4)], T.tets[i][size_t((c + 2) % 4)],
+                                       T.tets[i][size_t((c + 3) % 4)]};
+          std::sort(f.begin(), f.end());
+          faces[f].insert(T.region[i]);
+        }
+      }
+      CHECK(volume.size() == 2);
+      CHECK(volume[2] == doctest::Approx(-enclosed_volume(outer.points, outer.triangles) +
+                                         enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+      CHECK(volume[3] == doctest::Approx(-enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+      // Conforming: each interface triangle is a face of one tet of each meshed material beside it; every other
+      // face of a tet is shared by two tets of one material or by none (none: the outer hull).
+      for (size_t i = 0; i < triangles.size(); ++i) {
+        auto f = triangles[i];
+        std::sort(f.begin(), f.end());
+        std::multiset<int> expect;
+        for (uint16_t m : pair[i])
+          if (m > 0) expect.insert(int(m) + 1);
+        CHECK(faces[f] == expect);
+      }
+      size_t unpaired = 0;
+      for (const auto& [f, who] : faces) unpaired += who.size() == 1;
+      CHECK(unpaired == outer.triangles.size());  // the outer sphere only: no gap along a separator
+      CHECK(mesh::tet_stats(T.points, T.tets).min_dihedral_deg >= 10.0);
+    }
+  }
+}
