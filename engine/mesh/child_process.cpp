@@ -2,7 +2,10 @@
 
 #include <cerrno>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <algorithm>
 #include <exception>
 #include <stdexcept>
 
@@ -24,13 +27,15 @@ std::string run_in_child(const std::string& what, const std::function<std::strin
   if (pid == 0) {  // the child: run, send, leave without destructors or atexit handlers
     close(fds[0]);
     for (int sig : {SIGSEGV, SIGABRT, SIGBUS, SIGFPE, SIGILL}) std::signal(sig, SIG_DFL);  // no inherited crash reports
-    std::string buf;
+    std::string buf(sizeof(uint64_t), '\0');  // the length first (see the parent's read)
     try {
-      buf = '\0' + job();
+      buf += '\0' + job();
     } catch (const std::exception& e) {
-      buf.assign(1, '\1');
+      buf += '\1';
       buf += e.what();
     }
+    const uint64_t length = buf.size() - sizeof(uint64_t);
+    std::memcpy(buf.data(), &length, sizeof length);
     for (size_t at = 0; at < buf.size();) {
       const ssize_t w = write(fds[1], buf.data() + at, buf.size() - at);
       if (w <= 0) {
@@ -42,15 +47,25 @@ std::string run_in_child(const std::string& what, const std::function<std::strin
     _exit(0);
   }
   close(fds[1]);
+  // Read the announced length, not to the end of the pipe: a child forked meanwhile by another thread holds a copy of
+  // this pipe's write end until it exits, so the end would come only with the last of the runs going in parallel
+  // (all of a volume mesh's TetGen runs then ended at once, and their sliver passes waited for the slowest run).
   std::string buf;
+  uint64_t length = UINT64_MAX;
   char chunk[1 << 16];
   for (;;) {
-    const ssize_t r = read(fds[0], chunk, sizeof chunk);
+    const size_t want = buf.size() < sizeof length ? sizeof length - buf.size()
+                                                   : std::min<uint64_t>(sizeof chunk, length + sizeof length - buf.size());
+    if (want == 0) break;
+    const ssize_t r = read(fds[0], chunk, want);
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) break;
     buf.append(chunk, size_t(r));
+    if (length == UINT64_MAX && buf.size() >= sizeof length) std::memcpy(&length, buf.data(), sizeof length);
   }
   close(fds[0]);
+  if (length == UINT64_MAX || buf.size() != length + sizeof length) buf.clear();  // ended early: no result
+  else buf.erase(0, sizeof length);
   int status = 0;
   while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }

@@ -205,6 +205,7 @@ int main(int argc, char** argv) {
                                                        : nlohmann::json("all")},
                                       {"piece", run.piece}, {"pieces", run.pieces},
                                       {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
+        if (!rep.volume_unsplit_because.empty()) j["volume_unsplit_because"] = rep.volume_unsplit_because;
         std::cout << j.dump() << '\n';
         if (!sweep.empty()) {
           bench::ScalingRow row{h_max, double(rep.particles), {{"total", total}}};
