@@ -308,6 +308,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       rep.volume_runs = meshes.runs;
       rep.volume_unsplit_because = meshes.unsplit_because;
       rep.volume_separator_points = meshes.separator_points;
+      rep.steps.push_back({"volume mesh", "cutting into pieces", meshes.cut_seconds});
+      rep.steps.push_back({"volume mesh", "TetGen runs", meshes.runs_seconds});
+      rep.steps.push_back({"volume mesh", "merge and seams", meshes.seam_seconds});
       const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.

@@ -110,6 +110,9 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
 
   // Large materials are cut into pieces so that the runs fill the cores: each material gets runs in proportion to
   // its boundary, as long as every piece keeps options.min_piece_triangles.
+  using clock = std::chrono::steady_clock;
+  const auto t_start = clock::now();
+  auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   const size_t runs = options.runs > 0 ? options.runs : size_t(std::max(1, tbb::info::default_concurrency()));
   size_t boundary_total = 0;
   for (const Job& job : jobs) boundary_total += job.triangles.size();
@@ -165,6 +168,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     }
   }
 
+  const double cut_seconds = seconds_since(t_start);
+  const auto t_runs = clock::now();
   std::vector<MaterialMeshes> parts(runs_of.size());
   std::vector<std::string> errors(runs_of.size());
   auto run_all = [&](const std::vector<size_t>& which) {
@@ -235,6 +240,9 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   }
   // Merge: each run's added points after the ones before it.
   MaterialMeshes out;
+  out.cut_seconds = cut_seconds;
+  out.runs_seconds = seconds_since(t_runs);
+  const auto t_seams = clock::now();
   out.one_run_because = one_run_because;
   for (const auto& u : unsplit)
     if (!u.empty()) out.unsplit_because.push_back(u);
@@ -278,6 +286,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       out.improvement.min_dihedral_after = again.min_dihedral_after;
     }
   }
+  out.seam_seconds = seconds_since(t_seams);
   return out;
 }
 

@@ -8,8 +8,16 @@
 // triangles, as faces of tets on both sides, and the runs are independent: they go in parallel (the thread pool's
 // limit, largest boundary first), each TetGen run in a child process because a failing TetGen can kill its process
 // (child_process.h), its sliver passes back in this process (they use the thread pool, which a forked child of a
-// multithreaded process must not). The result does not depend on the thread count: the runs are merged in
-// material order.
+// multithreaded process must not). The runs are merged in material order.
+// One TetGen run per material leaves cores idle where there are more cores than materials (the paper-size head: 4
+// materials, the largest run 79 s of 87 on 16 cores). So the runs are shared out, QualityOptions::runs of them (0:
+// one per core), in proportion to the materials' boundaries, and a material given two or more is cut into pieces
+// by planes (split_material.h), each piece a run bounded by its boundary triangles and the separators, which both
+// sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only). A
+// piece whose tets do not fill the volume its boundary encloses, or a refused cut, meshes its material whole. After
+// the merge, where pieces were made, the sliver passes run once more over the whole mesh with the separators' points
+// free and only the interface triangles kept. The result depends on the number of runs, not on the thread count:
+// set QualityOptions::runs for the same mesh on every machine.
 // A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //
@@ -18,7 +26,8 @@
 //          seeds      a point inside every enclosed component, attribute = its material index + 1
 //                     (component_representatives in extract.h)
 //          labels     the materials' labels, for error messages
-// Outputs: tets.points  `points` first, unchanged, then the points the runs added, material by material
+// Outputs: tets.points  `points` first, unchanged, then the separators' points, then the points the runs added, run by
+//                       run in material order
 //          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
 #include <array>
 #include <cstdint>
@@ -47,6 +56,9 @@ struct MaterialMeshes {
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
   std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
   size_t separator_points = 0;               // the lattice points of the separators (split_material.h)
+  // Where the time went: cutting materials into pieces; the runs (TetGen and their sliver passes, in parallel, with
+  // the whole-material reruns); merging, and the sliver passes over the seams where pieces were made.
+  double cut_seconds = 0, runs_seconds = 0, seam_seconds = 0;
 };
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,

@@ -206,6 +206,11 @@ int main(int argc, char** argv) {
                                       {"piece", run.piece}, {"pieces", run.pieces},
                                       {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
         if (!rep.volume_unsplit_because.empty()) j["volume_unsplit_because"] = rep.volume_unsplit_because;
+        if (!only_surfaces)
+          j["slivers"] = {{"min_dihedral_deg_from_tetgen", rep.tet_improvement.min_dihedral_before},
+                          {"moves", rep.tet_improvement.moves}, {"flips", rep.sliver_split.flips},
+                          {"splits", rep.sliver_split.inserted}, {"left", rep.sliver_split.failed},
+                          {"separator_points", rep.volume_separator_points}};
         std::cout << j.dump() << '\n';
         if (!sweep.empty()) {
           bench::ScalingRow row{h_max, double(rep.particles), {{"total", total}}};
