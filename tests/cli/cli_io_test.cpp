@@ -127,8 +127,8 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   const auto vol = dir / "sphere.nrrd";
   REQUIRE(run_tool("cpmesh-synth sphere --size 32 --radius 10 -o " + vol.string()).exit_code == 0);
   const auto out = dir / "mesh";
-  const auto r = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply -o " + out.string() +
-                          " --preview " + (dir / "preview.png").string());
+  const auto r = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply --volume-runs 3 -o " +
+                          out.string() + " --preview " + (dir / "preview.png").string());
   REQUIRE(r.exit_code == 0);
   CHECK(fs::file_size(dir / "preview.png") > 1000);
   CHECK(contains(r.output, "volume mesh:"));
@@ -141,6 +141,10 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   CHECK(j["materials"][0]["closed"].get<bool>());
   CHECK(j["surface"]["mean_radius_ratio"].get<double>() > 0.85);
   CHECK(j["volume_mesh"]["tets"].get<int>() > 0);
+  // 3 runs asked, but a boundary of a few thousand triangles is not cut (QualityOptions::min_piece_triangles).
+  REQUIRE(j["volume_mesh"]["runs"].size() == 1);
+  CHECK(j["volume_mesh"]["runs"][0]["pieces"] == 1);
+  CHECK(j["volume_mesh"]["separator_points"] == 0);
   // Timings: the read, every stage, and the steps of the two stages that have them, each within its stage.
   CHECK(contains(r.output, "read volume"));
   CHECK(contains(r.output, "    tetrahedralization"));
@@ -149,7 +153,8 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
     CHECK_MESSAGE(j.at("seconds").contains(stage), stage);
   const std::map<std::string, std::vector<std::string>> steps = {
       {"fields", {"indicator fields", "embedding", "sizing field"}},
-      {"delaunay and extraction", {"tetrahedralization", "extraction"}}};
+      {"delaunay and extraction", {"tetrahedralization", "extraction"}},
+      {"volume mesh", {"cutting into pieces", "TetGen runs", "merge and seams"}}};
   for (const auto& [stage, parts] : steps) {
     double sum = 0;
     for (const auto& part : parts) {
