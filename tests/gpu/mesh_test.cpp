@@ -113,12 +113,15 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
     }
   }
   CHECK(ends == 7);
-  // The steps of "fields" and "delaunay and extraction", in order, each within its stage.
+  // The steps of "fields", "delaunay and extraction" and "volume mesh", in order, each within its stage.
   const std::vector<std::pair<std::string, std::string>> steps = {{"fields", "indicator fields"},
                                                                    {"fields", "embedding"},
                                                                    {"fields", "sizing field"},
                                                                    {"delaunay and extraction", "tetrahedralization"},
-                                                                   {"delaunay and extraction", "extraction"}};
+                                                                   {"delaunay and extraction", "extraction"},
+                                                                   {"volume mesh", "cutting into pieces"},
+                                                                   {"volume mesh", "TetGen runs"},
+                                                                   {"volume mesh", "merge and seams"}};
   REQUIRE(r.report.steps.size() == steps.size());
   std::map<std::string, double> within;
   for (size_t i = 0; i < steps.size(); ++i) {
