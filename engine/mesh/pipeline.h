@@ -80,7 +80,7 @@ struct StepTime {
 
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
-  std::vector<StepTime> steps;                          // the parts of "fields" and "delaunay and extraction"
+  std::vector<StepTime> steps;                          // the parts of "fields", "delaunay and extraction", "volume mesh"
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)
   double band_voxels = 0;  // the indicator fields' band, as chosen

@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/child_process.h"
 #include "mesh/extract.h"
 #include "mesh/face_key.h"
 #include "mesh/quality.h"
@@ -19,8 +20,9 @@ namespace {
 
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // face opposite corner c (extract.cpp's)
 
-// Lattice points keep this many times the mean edge length at a boundary vertex away from it: a triangle's
-// diametral ball then holds no lattice point, so the boundary triangles stay Delaunay faces.
+// Lattice points keep this many times the mean edge length at a boundary vertex away from it: a well-shaped
+// triangle's diametral ball then holds no lattice point, so the boundary triangles mostly stay Delaunay faces (the
+// flood's doubt handles the rest).
 constexpr double kClearance = 1.2;
 // The lattice's spacing, in mean edge lengths of the boundary triangles a plane cuts. TetGen's tets grow inward from
 // the boundary, and a lattice as fine as the boundary holds them small along the plane: a 128^3 wedge ball's
@@ -177,6 +179,11 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     hi = glm::max(hi, P[v]);
   }
   const glm::dvec3 extent = hi - lo;
+  // The signed volume of the cone from the box's corner over triangle abc: summed over a closed surface, the volume
+  // it encloses (from the corner rather than the origin, for the rounding of pieces far from it).
+  auto cone_volume = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    return glm::dot(a - lo, glm::cross(b - lo, c - lo)) / 6;
+  };
   out.axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
   const int axis = out.axis;
 
@@ -184,7 +191,16 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   std::sort(along.begin(), along.end());
-  for (int j = 1; j < pieces; ++j) out.planes.push_back(along[n_surface * size_t(j) / size_t(pieces)]);
+  // Each plane halfway between the quantile's coordinate and the next larger one: no vertex lies on a plane, nor does
+  // a lattice point land on a boundary triangle lying in one.
+  for (int j = 1; j < pieces; ++j) {
+    const size_t q = n_surface * size_t(j) / size_t(pieces);
+    const auto next = std::upper_bound(along.begin(), along.end(), along[q]);
+    if (next == along.end()) return refuse("too few distinct vertex coordinates along the cut axis");
+    out.planes.push_back((along[q] + *next) / 2);
+    if (out.planes.size() > 1 && !(out.planes.back() > out.planes[out.planes.size() - 2]))
+      return refuse("two cut planes coincide (many boundary vertices share one coordinate)");
+  }
 
   // Mean edge length at each vertex: the clearance of the lattice from it, and the lattice's spacing.
   std::vector<double> edge_sum(n_surface, 0.0), clearance(n_surface, 0.0);
@@ -219,7 +235,18 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     D_points.insert(D_points.end(), lattice.begin(), lattice.end());
   }
 
-  const Tets D = delaunay(D_points);
+  // In a child process: TetGen's exact predicates keep their error bounds in process-wide variables that each run
+  // sets from its own points, and the materials are cut in parallel.
+  Tets D;
+  {
+    const std::string bytes = run_in_child("Delaunay tetrahedralization for the cut", [&] {
+      ByteWriter w;
+      put_tets(w, delaunay(D_points));
+      return w.take();
+    });
+    ByteReader in(bytes);
+    if (!get_tets(in, D) || !in.done()) return refuse("truncated Delaunay tetrahedralization from the child process");
+  }
   const Adjacency adj = build_adjacency(D);
   const size_t n_tets = D.tets.size();
 
@@ -282,8 +309,10 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // wider, for tets a flood claimed through a gap before the other reached them.
   std::vector<uint8_t> gap_vertex(n_surface, 0);
   for (size_t i = 0; i < tri.size(); ++i)
-    if (!found[i])
+    if (!found[i]) {
+      ++out.gap_triangles;
       for (uint32_t v : tri[i]) gap_vertex[v] = 1;
+    }
   for (size_t t = 0; t < n_tets; ++t) {
     int on_gap = 0;
     for (uint32_t v : D.tets[t]) on_gap += v < n_surface && gap_vertex[v];
@@ -324,7 +353,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // gap rather than through it. (Clusters joined by shared vertices reached across the material's large inner tets:
   // on the 100^3 head phantom the separator then ran up to 10 voxels off its plane, along thin layers, and TetGen
   // left 13 times the slivers of the whole material there.)
-  std::vector<uint32_t> parent(n_tets), first_at(D_points.size(), UINT32_MAX);
+  std::vector<uint32_t> parent(n_tets);
   for (uint32_t t = 0; t < n_tets; ++t) parent[t] = t;
   auto find = [&](uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
@@ -332,8 +361,6 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   };
   for (uint32_t t = 0; t < n_tets; ++t)
     if (doubt[t]) {
-      for (uint32_t v : D.tets[t])
-        if (first_at[v] == UINT32_MAX) first_at[v] = t;
       for (uint32_t c = 0; c < 4; ++c) {
         const uint32_t nb = adj.neighbour[size_t(t) * 4 + c];
         if (nb != Adjacency::kHull && doubt[nb / 4]) parent[find(t)] = find(nb / 4);
@@ -344,10 +371,19 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     if (doubt[t]) cluster_piece[find(t)] = std::min(cluster_piece[find(t)], piece[t]);
   for (uint32_t t = 0; t < n_tets; ++t)
     if (doubt[t]) piece[t] = cluster_piece[find(t)];
-  auto piece_of_tet = [&](size_t t) { return piece[t]; };
+  // Doubtful tets on an edge of a boundary triangle that is no Delaunay face (both ends gap vertices).
+  auto edge_key = [](uint32_t a, uint32_t b) { return uint64_t(std::min(a, b)) << 32 | std::max(a, b); };
+  std::unordered_map<uint64_t, uint32_t> gap_edge_tet;
+  for (uint32_t t = 0; t < n_tets; ++t)
+    if (doubt[t])
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) {
+          const uint32_t u = D.tets[t][size_t(a)], v = D.tets[t][size_t(b)];
+          if (u < n_surface && v < n_surface && gap_vertex[u] && gap_vertex[v]) gap_edge_tet.emplace(edge_key(u, v), t);
+        }
 
-
-  // Each boundary triangle goes to the piece of its inside tet (by its centroid where it has none).
+  // Each boundary triangle goes to the piece of its inside tet; one that is no Delaunay face to that of a doubtful tet
+  // on one of its edges, else of its centroid.
   out.pieces.assign(size_t(pieces), {});
   out.volumes.assign(size_t(pieces), 0.0);
   std::vector<int> piece_of_triangle(tri.size(), -1);
@@ -355,13 +391,17 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     if (wall[tc] != UINT32_MAX) {
       const auto& t = tri[wall[tc]];
       const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
-      if (glm::dot(n, D.points[D.tets[tc / 4][tc % 4]] - P[t[0]]) < 0) piece_of_triangle[wall[tc]] = piece_of_tet(tc / 4);
+      if (glm::dot(n, D.points[D.tets[tc / 4][tc % 4]] - P[t[0]]) < 0) piece_of_triangle[wall[tc]] = piece[tc / 4];
     }
   for (size_t i = 0; i < tri.size(); ++i) {
-    if (piece_of_triangle[i] < 0 && first_at[tri[i][0]] != UINT32_MAX) piece_of_triangle[i] = piece[first_at[tri[i][0]]];
+    if (piece_of_triangle[i] < 0)  // a gap: the piece of a doubtful tet on one of its edges
+      for (int e = 0; e < 3 && piece_of_triangle[i] < 0; ++e) {
+        const auto it = gap_edge_tet.find(edge_key(tri[i][size_t(e)], tri[i][size_t((e + 1) % 3)]));
+        if (it != gap_edge_tet.end()) piece_of_triangle[i] = piece[it->second];
+      }
     if (piece_of_triangle[i] < 0) piece_of_triangle[i] = piece_at((P[tri[i][0]][axis] + P[tri[i][1]][axis] + P[tri[i][2]][axis]) / 3);
     out.pieces[size_t(piece_of_triangle[i])].push_back(boundary[i]);
-    out.volumes[size_t(piece_of_triangle[i])] += glm::dot(P[tri[i][0]], glm::cross(P[tri[i][1]], P[tri[i][2]])) / 6;
+    out.volumes[size_t(piece_of_triangle[i])] += cone_volume(P[tri[i][0]], P[tri[i][1]], P[tri[i][2]]);
   }
 
   // The separator: faces between inside tets of different pieces, each found from the higher piece's side.
@@ -377,12 +417,12 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   std::vector<std::array<uint32_t, 3>> near_gap;  // separator faces of tets in doubt (local numbering)
   for (size_t t = 0; t < n_tets; ++t) {
     if (side[t] != kIn) continue;
-    const int p = piece_of_tet(t);
+    const int p = piece[t];
     for (int c = 0; c < 4; ++c) {
       const size_t tc = t * 4 + size_t(c);
       const uint32_t nb = adj.neighbour[tc];
       if (wall[tc] != UINT32_MAX || nb == Adjacency::kHull || side[nb / 4] != kIn) continue;
-      const int q = piece_of_tet(nb / 4);
+      const int q = piece[nb / 4];
       if (q >= p) continue;
       const auto& v = D.tets[t];
       std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
@@ -391,7 +431,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
       if (glm::dot(glm::cross(D_points[f[1]] - D_points[f[0]], D_points[f[2]] - D_points[f[0]]),
                    D_points[v[size_t(c)]] - D_points[f[0]]) > 0)
         std::swap(f[1], f[2]);
-      const double volume = glm::dot(D_points[f[0]], glm::cross(D_points[f[1]], D_points[f[2]])) / 6;
+      const double volume = cone_volume(D_points[f[0]], D_points[f[1]], D_points[f[2]]);
       out.volumes[size_t(p)] += volume;
       out.volumes[size_t(q)] -= volume;
       for (auto& x : f) x = caller_index(x);

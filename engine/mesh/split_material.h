@@ -8,20 +8,22 @@
 // Delaunay tetrahedralization of the boundary's vertices and a triangular lattice of points on each plane (inside
 // the material, kept clear of its boundary): the boundary triangles are Delaunay faces there (the restricted
 // Delaunay triangles of the particles; after the smoothing all but a few in 10^4 still are), so a flood from them
-// across the other faces tells which tets lie inside the material. Each inside tet belongs to the piece that holds
-// its centroid, and the separator is the faces between inside tets of different pieces: the lattice's own
-// triangles in the open, Delaunay faces joining lattice and boundary points near the boundary. Quality is TetGen's
-// business, as for a whole material: it refines each piece up to its fixed boundary.
+// across the other faces tells which tets lie inside the material (ray parity where the flood is in doubt: near a
+// boundary triangle that is no Delaunay face). Each inside tet belongs to the piece that holds its centroid, a
+// cluster of doubtful tets to its lowest piece, and the separator is the faces between inside tets of different
+// pieces: the lattice's own triangles in the open, Delaunay faces joining lattice and boundary points near the
+// boundary. TetGen refines each piece up to its fixed boundary; it leaves more slivers along a kept separator than
+// in a whole material (volume_mesh.h).
 //
 // It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
-// pieces: a boundary that is not closed, a plane that crosses no boundary triangle, a separator face near a place
-// where the flood is in doubt (a boundary triangle that is not a Delaunay face, where the inside and the outside
-// meet), a piece whose boundary is not closed.
+// pieces: a boundary that is not closed, planes that coincide or cross no boundary triangle, a separator face that
+// crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed. It
+// throws where TetGen cannot tetrahedralize the points at all (fewer than 4).
 //
 // Inputs:  points     every point, in the caller's numbering (the boundary's vertices among them)
 //          boundary   the material's interface triangles, oriented with their normals out of the material
-//          pieces     how many pieces (>= 2): the planes lie at quantiles of the boundary's vertices, so the pieces'
-//                     boundaries are about equally large
+//          pieces     how many pieces (>= 2): the planes lie at quantiles of the boundary's vertices (halfway to the
+//                     next distinct coordinate), so the pieces' boundaries are about equally large
 //          first_new  the number the first new point gets (the caller appends MaterialSplit::points there)
 // Outputs: MaterialSplit
 #include <array>
@@ -39,6 +41,7 @@ struct MaterialSplit {
                                                              // oriented out of the piece
   std::vector<double> volumes;  // each piece's enclosed volume (of its oriented boundary): its tets must fill it
   size_t separator_triangles = 0;
+  size_t gap_triangles = 0;     // boundary triangles that are no Delaunay face of the cut's tetrahedralization
   int axis = 0;                 // the planes' normal (0: x, 1: y, 2: z)
   std::vector<double> planes;   // where they cut that axis
   std::string refused;          // not empty: why the material was not split (pieces and points are then empty)

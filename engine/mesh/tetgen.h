@@ -38,9 +38,9 @@ struct QualityOptions {
   double max_volume = 0;         // TetGen -a (0: no limit)
   bool keep_surface = true;      // TetGen -Y: no Steiner points on the input triangles
   // mesh_materials only (volume_mesh.h): how many TetGen runs to aim at, large materials cut into pieces
-  // (split_material.h) so that the runs fill the cores; 0: the thread pool's size. 1, the default, is one run per
-  // material: pieces leave slivers the passes cannot mend (the paper-size head: 38, dihedral angles from 7.5 degrees
-  // instead of 12), so the faster mesh is asked for.
+  // (split_material.h) so that the runs fill the cores; 0: the thread limit (tbb::global_control, --threads). 1, the
+  // default, is one run per material: pieces leave slivers the passes cannot mend (the paper-size head: 38, dihedral
+  // angles from 7.5 degrees instead of 12), so the faster mesh is asked for.
   size_t runs = 1;
   size_t min_piece_triangles = 20'000;  // a material is cut only into pieces of at least this many boundary triangles
 };

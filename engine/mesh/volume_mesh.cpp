@@ -9,7 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <tbb/info.h>
+#include <tbb/global_control.h>
 
 #include "mesh/child_process.h"
 #include "mesh/split_material.h"
@@ -27,6 +27,19 @@ struct Job {
   uint16_t piece = 0, pieces = 1;
   double volume = 0;
 };
+
+// The sliver passes of smooth.h over tets V: move the free vertices (index >= fixed), then refill the slivers among
+// kept vertices around a new vertex (never across a face in `kept`), then move again to place the new vertices.
+void sliver_passes(Tets& V, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept, const QualityOptions& options,
+                   TetImproveReport& improvement, SliverSplitReport& split) {
+  improvement = improve_tets(V.points, V.tets, fixed, options.min_dihedral, options.max_radius_edge);
+  split = split_slivers(V.points, V.tets, V.region, kept, options.min_dihedral, options.max_radius_edge);
+  if (split.inserted + split.flips > 0) {
+    const auto again = improve_tets(V.points, V.tets, fixed, options.min_dihedral, options.max_radius_edge);
+    improvement.min_dihedral_after = again.min_dihedral_after;
+    improvement.moves += again.moves;
+  }
+}
 
 // One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
 // back), then the sliver passes of smooth.h here, where they may use the thread pool (a forked child of a
@@ -64,15 +77,7 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
       throw std::runtime_error(what + ": its tets fill " + std::to_string(volume) + " of the " +
                                std::to_string(job.volume) + " its boundary encloses");
   }
-  r.improvement = improve_tets(V.points, V.tets, points.size(), options.min_dihedral, options.max_radius_edge);
-  // What moving vertices left: slivers among kept surface vertices. Refill them around a new vertex, then let the
-  // vertex pass place the new vertices among their neighbours.
-  r.sliver_split = split_slivers(V.points, V.tets, V.region, job.triangles, options.min_dihedral, options.max_radius_edge);
-  if (r.sliver_split.inserted + r.sliver_split.flips > 0) {
-    const auto again = improve_tets(V.points, V.tets, points.size(), options.min_dihedral, options.max_radius_edge);
-    r.improvement.min_dihedral_after = again.min_dihedral_after;
-    r.improvement.moves += again.moves;
-  }
+  sliver_passes(V, points.size(), job.triangles, options, r.improvement, r.sliver_split);
   r.runs = {{job.material, std::chrono::duration<double>(t1 - t0).count(),
              std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size(),
              job.piece, job.pieces}};
@@ -113,7 +118,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  const size_t runs = options.runs > 0 ? options.runs : size_t(std::max(1, tbb::info::default_concurrency()));
+  const size_t runs = options.runs > 0 ? options.runs : tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   size_t boundary_total = 0;
   for (const Job& job : jobs) boundary_total += job.triangles.size();
   std::vector<MaterialSplit> splits(jobs.size());
@@ -121,7 +126,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   for (size_t j = 0; j < jobs.size() && runs > jobs.size(); ++j) {
     const size_t n = jobs[j].triangles.size();
     const double share = double(runs) * double(n) / double(std::max<size_t>(boundary_total, 1));
-    const size_t k = std::min(size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1));
+    const size_t k = std::min({size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1), size_t(1024)});
     if (k >= 2) {
       splits[j].pieces.resize(k);  // how many asked, until split_material fills them
       to_split.push_back(j);
@@ -246,7 +251,11 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   out.one_run_because = one_run_because;
   for (const auto& u : unsplit)
     if (!u.empty()) out.unsplit_because.push_back(u);
-  out.separator_points = all_points.size() - points.size();
+  bool any_piece = false;
+  for (const MaterialMeshes& r : merged)
+    for (const auto& run : r.runs) any_piece = any_piece || run.pieces > 1;
+  for (size_t j = 0; j < jobs.size(); ++j)  // the separators of the materials meshed in pieces (others' are unused)
+    if (unsplit[j].empty() && failed.empty()) out.separator_points += splits[j].points.size();
   Tets& T = out.tets;
   T.points = all_points;
   bool first = true;
@@ -270,21 +279,18 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     out.sliver_split.failed += r.sliver_split.failed;
     first = false;
   }
-  if (out.separator_points > 0) {
+  if (any_piece) {
     // The pieces kept their separators as they were; now that the pieces are one mesh, the sliver passes may move
-    // the separators' points and flip or refill across them (only the interface triangles are kept).
-    const auto seam = improve_tets(T.points, T.tets, points.size(), options.min_dihedral, options.max_radius_edge);
+    // the separators' points and flip or refill across them (only the interface triangles are kept). The slivers
+    // left are this pass's (`failed` is not summed with the runs': those the seams freed may be mended here).
+    TetImproveReport seam;
+    SliverSplitReport refill;
+    sliver_passes(T, points.size(), triangles, options, seam, refill);
     out.improvement.moves += seam.moves;
     out.improvement.min_dihedral_after = seam.min_dihedral_after;
-    const auto split = split_slivers(T.points, T.tets, T.region, triangles, options.min_dihedral, options.max_radius_edge);
-    out.sliver_split.flips += split.flips;
-    out.sliver_split.inserted += split.inserted;
-    out.sliver_split.failed = split.failed;
-    if (split.inserted + split.flips > 0) {
-      const auto again = improve_tets(T.points, T.tets, points.size(), options.min_dihedral, options.max_radius_edge);
-      out.improvement.moves += again.moves;
-      out.improvement.min_dihedral_after = again.min_dihedral_after;
-    }
+    out.sliver_split.flips += refill.flips;
+    out.sliver_split.inserted += refill.inserted;
+    out.sliver_split.failed = refill.failed;
   }
   out.seam_seconds = seconds_since(t_seams);
   return out;

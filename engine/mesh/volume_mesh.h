@@ -17,8 +17,8 @@
 // piece whose tets do not fill the volume its boundary encloses, or a refused cut, meshes its material whole. After
 // the merge, where pieces were made, the sliver passes run once more over the whole mesh with the separators' points
 // free and only the interface triangles kept; some slivers stay (measured on the head: 38 of 21 M tets, from 7.5
-// degrees), which is why one run per material is the default. The result depends on the number of runs, not on the
-// thread count.
+// degrees), which is why one run per material is the default. The result depends on the number of runs (with 0, on
+// the thread limit), not otherwise on the thread count.
 // A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //

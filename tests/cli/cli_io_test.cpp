@@ -145,7 +145,7 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   REQUIRE(j["volume_mesh"]["runs"].size() == 1);
   CHECK(j["volume_mesh"]["runs"][0]["pieces"] == 1);
   CHECK(j["volume_mesh"]["separator_points"] == 0);
-  // Timings: the read, every stage, and the steps of the two stages that have them, each within its stage.
+  // Timings: the read, every stage, and the steps of the three stages that have them, each within its stage.
   CHECK(contains(r.output, "read volume"));
   CHECK(contains(r.output, "    tetrahedralization"));
   for (const char* stage : {"read volume", "fields", "seeding", "advection", "delaunay and extraction", "smoothing",

@@ -193,3 +193,50 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
     }
   }
 }
+
+TEST_CASE("split_material: boundary triangles that are no Delaunay faces are seen, and the pieces stay closed") {
+  // Flipping an icosphere edge leaves the two new triangles without an empty sphere (the old diagonal had it): 20
+  // flips near the plane x = 0 where the cut goes (the sphere's extents tie, so the axis is x).
+  Sphere s = icosphere(10.0, 4, false);
+  std::map<std::pair<uint32_t, uint32_t>, size_t> edge_of;  // directed edge -> triangle
+  for (size_t t = 0; t < s.triangles.size(); ++t)
+    for (int e = 0; e < 3; ++e) edge_of[{s.triangles[t][size_t(e)], s.triangles[t][size_t((e + 1) % 3)]}] = t;
+  std::set<uint32_t> touched;
+  int flips = 0;
+  for (size_t t = 0; t < s.triangles.size() && flips < 20; ++t) {
+    const auto [a, b, c] = s.triangles[t];
+    const size_t u = edge_of.at({b, a});
+    uint32_t d = 0;
+    for (uint32_t v : s.triangles[u])
+      if (v != a && v != b) d = v;
+    const std::set<uint32_t> quad = {a, b, c, d};
+    if (std::fabs((s.points[a] + s.points[b] + s.points[c] + s.points[d]).x / 4) > 2.0) continue;
+    if (std::any_of(quad.begin(), quad.end(), [&](uint32_t v) { return touched.count(v) > 0; })) continue;
+    s.triangles[t] = {c, a, d};
+    s.triangles[u] = {d, b, c};
+    touched.insert(quad.begin(), quad.end());
+    ++flips;
+  }
+  REQUIRE(flips == 20);
+  REQUIRE(mesh::odd_edges(s.triangles) == 0);
+  const auto split = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()));
+  MESSAGE(split.gap_triangles << " gap triangles; " << (split.refused.empty() ? "split" : split.refused));
+  if (!split.refused.empty()) {
+    CHECK(split.refused.find("crosses") != std::string::npos);
+    return;
+  }
+  CHECK(split.gap_triangles >= 20);
+  std::vector<glm::dvec3> all = s.points;
+  all.insert(all.end(), split.points.begin(), split.points.end());
+  double sum = 0;
+  for (size_t p = 0; p < 2; ++p) {
+    CHECK(mesh::odd_edges(split.pieces[p]) == 0);
+    sum += split.volumes[p];
+    // The pieces fill their boundaries exactly: the separator went around the gaps, not through them.
+    const mesh::Tets V = mesh::constrained_quality(all, split.pieces[p], {}, {}, mesh::QualityOptions{});
+    double filled = 0;
+    for (const auto& t : V.tets) filled += tet_volume(V.points, t);
+    CHECK(filled == doctest::Approx(split.volumes[p]).epsilon(1e-9));
+  }
+  CHECK(sum == doctest::Approx(enclosed_volume(s.points, s.triangles)).epsilon(1e-12));
+}

@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   size_t volume_runs = mesh::MeshOptions{}.volume.runs;
   app.add_option("--volume-runs", volume_runs,
-                 "Volume mesh: TetGen runs to aim at, large materials cut into pieces (0: one per core; 1: one per "
+                 "Volume mesh: TetGen runs to aim at, large materials cut into pieces (0: one per thread; 1: one per "
                  "material; cpmesh mesh --volume-runs)")
       ->capture_default_str();
   double peer_facet = 1.5;

@@ -73,7 +73,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_option("--volume-runs", m.volume.runs,
                   "Volume mesh: TetGen runs to aim at in parallel, materials with large boundaries cut into pieces "
-                  "by planes (0: one per core; 1: one run per material). More runs are faster on many cores, but a few "
+                  "by planes (0: one per thread, see --threads; 1: one run per material). More runs are faster on many cores, but a few "
                   "slivers may stay where pieces meet")
       ->capture_default_str();
   sub->add_option("--junction-protection", m.junction_protection,
