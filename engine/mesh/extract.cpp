@@ -1,6 +1,7 @@
 #include "mesh/extract.h"
 
 #include "mesh/face_key.h"
+#include "mesh/quality.h"
 
 #include <algorithm>
 #include <numeric>
@@ -345,7 +346,7 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
   for (uint32_t t = 0; t < T.tets.size(); ++t) {
     const auto& k = T.tets[t];
     const glm::dvec3 &a = T.points[k[0]], &b = T.points[k[1]], &c = T.points[k[2]], &d = T.points[k[3]];
-    const double volume = std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6.0;
+    const double volume = tet_volume(a, b, c, d);
     const double area = 0.5 * (glm::length(glm::cross(b - a, c - a)) + glm::length(glm::cross(b - a, d - a)) +
                                glm::length(glm::cross(c - a, d - a)) + glm::length(glm::cross(c - b, d - b)));
     const double inradius = area > 0 ? 3.0 * volume / area : 0.0;

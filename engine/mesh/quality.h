@@ -6,6 +6,7 @@
 //  - Materials: closed (every edge of the material's boundary triangles is used an even number of times).
 //  - Tets: dihedral angles (min, max) and radius-edge ratio (circumradius / shortest edge).
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -23,6 +24,10 @@ std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, 
 // The smallest and largest of them (the same values), with two arc cosines instead of six.
 std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+// The volume of tet abcd (unsigned).
+inline double tet_volume(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  return std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6.0;
+}
 
 struct TriangleStats {
   size_t triangles = 0;

@@ -271,6 +271,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // Delaunay face leaves a gap, and the tets around it may be on either side.
   enum : uint8_t { kUnknown = 0, kIn = 1, kOut = 2 };
   std::vector<uint8_t> side(n_tets, kUnknown), doubt(n_tets, 0), found(tri.size(), 0);
+  std::vector<uint32_t> inside_tet(tri.size(), UINT32_MAX);  // per boundary triangle, the tet on its inner side
   std::vector<uint32_t> queue;
   for (size_t tc = 0; tc < n_tets * 4; ++tc) {
     if (wall[tc] == UINT32_MAX) continue;
@@ -278,6 +279,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     found[wall[tc]] = 1;
     const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
     const uint8_t s = glm::dot(n, D.points[D.tets[tc / 4][tc % 4]] - P[t[0]]) < 0 ? kIn : kOut;
+    if (s == kIn) inside_tet[wall[tc]] = uint32_t(tc / 4);
     uint8_t& now = side[tc / 4];
     if (now == kUnknown) {
       now = s;
@@ -387,13 +389,8 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   out.pieces.assign(size_t(pieces), {});
   out.volumes.assign(size_t(pieces), 0.0);
   std::vector<int> piece_of_triangle(tri.size(), -1);
-  for (size_t tc = 0; tc < n_tets * 4; ++tc)
-    if (wall[tc] != UINT32_MAX) {
-      const auto& t = tri[wall[tc]];
-      const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
-      if (glm::dot(n, D.points[D.tets[tc / 4][tc % 4]] - P[t[0]]) < 0) piece_of_triangle[wall[tc]] = piece[tc / 4];
-    }
   for (size_t i = 0; i < tri.size(); ++i) {
+    if (inside_tet[i] != UINT32_MAX) piece_of_triangle[i] = piece[inside_tet[i]];
     if (piece_of_triangle[i] < 0)  // a gap: the piece of a doubtful tet on one of its edges
       for (int e = 0; e < 3 && piece_of_triangle[i] < 0; ++e) {
         const auto it = gap_edge_tet.find(edge_key(tri[i][size_t(e)], tri[i][size_t((e + 1) % 3)]));

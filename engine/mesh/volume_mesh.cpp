@@ -7,11 +7,11 @@
 #include <string>
 
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
-#include <tbb/global_control.h>
-
 #include "mesh/child_process.h"
+#include "mesh/quality.h"
 #include "mesh/split_material.h"
 
 namespace cpmesh::mesh {
@@ -69,10 +69,7 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
     // tets must fill the volume its boundary encloses, or the separator went astray near a gap (split_material.h).
     V.region.assign(V.tets.size(), int(job.material) + 1);
     double volume = 0;
-    for (const auto& t : V.tets) {
-      const glm::dvec3 &a = V.points[t[0]], &b = V.points[t[1]], &c = V.points[t[2]], &d = V.points[t[3]];
-      volume += std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6;
-    }
+    for (const auto& t : V.tets) volume += tet_volume(V.points[t[0]], V.points[t[1]], V.points[t[2]], V.points[t[3]]);
     if (!(std::fabs(volume - job.volume) <= 1e-9 * std::fabs(job.volume) + 1e-12))
       throw std::runtime_error(what + ": its tets fill " + std::to_string(volume) + " of the " +
                                std::to_string(job.volume) + " its boundary encloses");
@@ -122,26 +119,23 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   size_t boundary_total = 0;
   for (const Job& job : jobs) boundary_total += job.triangles.size();
   std::vector<MaterialSplit> splits(jobs.size());
-  std::vector<size_t> to_split;
+  std::vector<std::pair<size_t, int>> to_split;  // (job, pieces)
   for (size_t j = 0; j < jobs.size() && runs > jobs.size(); ++j) {
     const size_t n = jobs[j].triangles.size();
     const double share = double(runs) * double(n) / double(std::max<size_t>(boundary_total, 1));
     const size_t k = std::min({size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1), size_t(1024)});
-    if (k >= 2) {
-      splits[j].pieces.resize(k);  // how many asked, until split_material fills them
-      to_split.push_back(j);
-    }
+    if (k >= 2) to_split.push_back({j, int(k)});
   }
   std::vector<std::string> unsplit(jobs.size());
   tbb::parallel_for(size_t(0), to_split.size(), [&](size_t i) {
-    const size_t j = to_split[i];
+    const auto [j, k] = to_split[i];
     const uint16_t m = jobs[j].material;
     std::vector<std::array<uint32_t, 3>> outward;  // the boundary with normals out of the material
     for (size_t t = 0; t < triangles.size(); ++t)
       if (pair[t][0] == m) outward.push_back(triangles[t]);
       else if (pair[t][1] == m) outward.push_back({triangles[t][0], triangles[t][2], triangles[t][1]});
     try {
-      splits[j] = split_material(points, outward, int(splits[j].pieces.size()), uint32_t(points.size()));
+      splits[j] = split_material(points, outward, k, uint32_t(points.size()));
     } catch (const std::exception& e) {
       splits[j] = {};
       splits[j].refused = e.what();
