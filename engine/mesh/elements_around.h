@@ -1,7 +1,7 @@
 #pragma once
 // The elements (tets or triangles) around each vertex, in ascending element order: a table built in parallel (grouped.h),
 // and a copy per vertex whose list changed since (split_slivers replaces tets; new vertices get lists there).
-// Used by the interface smoothing and the sliver passes (smooth.cpp).
+// Used by the interface smoothing and the sliver passes (smooth.cpp, remesh_slivers.cpp), with the tet helpers below.
 #include <algorithm>
 #include <array>
 #include <cstddef>
@@ -45,5 +45,29 @@ class ElementsAround {
   Grouped table_;
   std::unordered_map<uint32_t, std::vector<uint32_t>> changed_;
 };
+
+// Whether element e has vertex v.
+template <size_t N>
+bool has_vertex(const std::array<uint32_t, N>& e, uint32_t v) {
+  return std::find(e.begin(), e.end(), v) != e.end();
+}
+
+// The face of tet t opposite its vertex i (the other three, in order).
+inline std::array<uint32_t, 3> face_opposite(const std::array<uint32_t, 4>& t, int i) {
+  std::array<uint32_t, 3> f{};
+  int n = 0;
+  for (int a = 0; a < 4; ++a)
+    if (a != i) f[size_t(n++)] = t[size_t(a)];
+  return f;
+}
+
+// The tet across face i of tet t (found among the tets around the face's first vertex), or UINT32_MAX.
+inline uint32_t tet_across(const ElementsAround<4>& around, const std::vector<std::array<uint32_t, 4>>& tets, uint32_t t,
+                           int i) {
+  const auto f = face_opposite(tets[t], i);
+  for (uint32_t u : around[f[0]])
+    if (u != t && has_vertex(tets[u], f[1]) && has_vertex(tets[u], f[2])) return u;
+  return UINT32_MAX;
+}
 
 }  // namespace cpmesh::mesh

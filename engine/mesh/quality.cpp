@@ -4,6 +4,7 @@
 #include <atomic>
 #include <limits>
 #include <cmath>
+#include <functional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -372,6 +373,21 @@ std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& V, const
     x.mean_radius_edge /= double(x.tets);
   }
   return all.s;
+}
+
+size_t count_below_dihedral(const std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
+                            double min_deg) {
+  const double bound = min_deg * M_PI / 180;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, tets.size()), size_t(0),
+      [&](const tbb::blocked_range<size_t>& r, size_t n) {
+        for (size_t t = r.begin(); t != r.end(); ++t) {
+          const auto& k = tets[t];
+          n += dihedral_range(P[k[0]], P[k[1]], P[k[2]], P[k[3]])[0] < bound;
+        }
+        return n;
+      },
+      std::plus<>());
 }
 
 TetStats tet_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 4>>& tets) {

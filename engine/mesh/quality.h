@@ -87,6 +87,9 @@ struct TetStats {
   double min_dihedral_deg = 0, max_dihedral_deg = 0, max_radius_edge = 0, mean_radius_edge = 0;
 };
 TetStats tet_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets);
+// How many tets have a dihedral angle below min_deg degrees (in parallel).
+size_t count_below_dihedral(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets,
+                            double min_deg);
 // The same per group of tets (group[i] < groups: tet i's group), in one parallel pass; a group with no tet gets
 // TetStats{}. `combined` joins groups into the stats of all their tets.
 std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& vertices,

@@ -211,16 +211,6 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
   return report;
 }
 
-namespace {
-
-// Whether tet (or triangle) e has vertex v.
-template <size_t N>
-bool has(const std::array<uint32_t, N>& e, uint32_t v) {
-  return std::find(e.begin(), e.end(), v) != e.end();
-}
-
-}  // namespace
-
 TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
                               size_t fixed, double target_deg, double max_radius_edge, int passes) {
   TetImproveReport report;
@@ -325,19 +315,6 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   return report;
 }
 
-namespace {
-
-// The face of tet t opposite its vertex i.
-std::array<uint32_t, 3> face_of(const std::array<uint32_t, 4>& t, int i) {
-  std::array<uint32_t, 3> f{};
-  int n = 0;
-  for (int a = 0; a < 4; ++a)
-    if (a != i) f[size_t(n++)] = t[size_t(a)];
-  return f;
-}
-
-}  // namespace
-
 SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
                                 std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
                                 double target_deg, double max_radius_edge, int max_rings, bool remove_edges) {
@@ -364,7 +341,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   const ElementsAround<3> kept_around(P.size(), kept);
   auto is_kept = [&](const std::array<uint32_t, 3>& f) {
     for (uint32_t k : kept_around[f[0]])
-      if (has(kept[k], f[1]) && has(kept[k], f[2])) return true;
+      if (has_vertex(kept[k], f[1]) && has_vertex(kept[k], f[2])) return true;
     return false;
   };
   auto link = [&](uint32_t t) {
@@ -373,12 +350,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   auto unlink = [&](uint32_t t) {
     for (uint32_t v : tets[t]) around.remove(v, t);
   };
-  auto neighbour = [&](uint32_t t, int i) {
-    const auto f = face_of(tets[t], i);
-    for (uint32_t u : around[f[0]])
-      if (u != t && has(tets[u], f[1]) && has(tets[u], f[2])) return u;
-    return dead;
-  };
+  auto neighbour = [&](uint32_t t, int i) { return tet_across(around, tets, t, i); };
 
   const bool had_regions = !region.empty();
   if (!had_regions) region.assign(tets.size(), 0);
@@ -430,7 +402,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
           const auto& q = tets[t];
           int opposite = 0;
           while (opposite < 4 && q[size_t(opposite)] != prev) ++opposite;
-          if (opposite == 4 || is_kept(face_of(q, opposite))) break;
+          if (opposite == 4 || is_kept(face_opposite(q, opposite))) break;
           const uint32_t u = neighbour(t, opposite);
           if (u == dead) break;
           if (u == start) {
@@ -509,7 +481,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
           for (int i = 0; i < 4; ++i) {
             const uint32_t u = neighbour(t, i);
             if (u == dead || in_cavity.count(u) || region[u] != region[start]) continue;
-            if (is_kept(face_of(tets[t], i))) continue;
+            if (is_kept(face_opposite(tets[t], i))) continue;
             cavity.push_back(u);
             in_cavity.insert(u);
           }
@@ -533,7 +505,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
         for (int i = 0; i < 4; ++i) {
           const uint32_t u = neighbour(t, i);
           if (u != dead && in_cavity.count(u)) continue;
-          const auto f = face_of(k, i);
+          const auto f = face_opposite(k, i);
           boundary.push_back({f, orient(P[f[0]], P[f[1]], P[f[2]], P[k[size_t(i)]]) > 0 ? 1.0 : -1.0});
           for (uint32_t v : f) boundary_vertices.insert(v);
         }

@@ -68,7 +68,8 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& points, const std::vector
 struct SliverSplitReport {
   size_t flips = 0;     // edges removed (no new vertex)
   size_t inserted = 0;  // new inner vertices
-  size_t failed = 0;    // slivers neither could improve
+  size_t failed = 0;    // slivers neither could improve (volume_mesh.cpp: tets left below the bound after all passes)
+  size_t remeshed = 0;  // cavities meshed afresh after these passes (remesh_slivers.h; set by volume_mesh.cpp)
 };
 SliverSplitReport split_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
                                 std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,

@@ -13,7 +13,7 @@
 // cluster of doubtful tets to its lowest piece, and the separator is the faces between inside tets of different
 // pieces: the lattice's own triangles in the open, Delaunay faces joining lattice and boundary points near the
 // boundary. TetGen refines each piece up to its fixed boundary; it leaves more slivers along a kept separator than
-// in a whole material (volume_mesh.h).
+// in a whole material, which the sliver passes after the merge mesh afresh with the separator free (volume_mesh.h).
 //
 // It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
 // pieces: a boundary that is not closed, planes that coincide or cross no boundary triangle, a separator face that

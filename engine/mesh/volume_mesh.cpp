@@ -12,6 +12,7 @@
 
 #include "mesh/child_process.h"
 #include "mesh/quality.h"
+#include "mesh/remesh_slivers.h"
 #include "mesh/split_material.h"
 
 namespace cpmesh::mesh {
@@ -28,17 +29,25 @@ struct Job {
   double volume = 0;
 };
 
-// The sliver passes of smooth.h over tets V: move the free vertices (index >= fixed), then refill the slivers among
-// kept vertices around a new vertex (never across a face in `kept`), then move again to place the new vertices.
+// The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
+// around a new vertex (never across a face in `kept`), then move again to place the new vertices (smooth.h); then,
+// where `remesh` and slivers are left, mesh the cavities around them afresh (remesh_slivers.h) and move once more.
+// split.failed is then the number of tets left below the dihedral bound.
 void sliver_passes(Tets& V, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept, const QualityOptions& options,
-                   TetImproveReport& improvement, SliverSplitReport& split) {
-  improvement = improve_tets(V.points, V.tets, fixed, options.min_dihedral, options.max_radius_edge);
-  split = split_slivers(V.points, V.tets, V.region, kept, options.min_dihedral, options.max_radius_edge);
-  if (split.inserted + split.flips > 0) {
+                   bool remesh, TetImproveReport& improvement, SliverSplitReport& split) {
+  auto move_again = [&] {
     const auto again = improve_tets(V.points, V.tets, fixed, options.min_dihedral, options.max_radius_edge);
     improvement.min_dihedral_after = again.min_dihedral_after;
     improvement.moves += again.moves;
+  };
+  improvement = improve_tets(V.points, V.tets, fixed, options.min_dihedral, options.max_radius_edge);
+  split = split_slivers(V.points, V.tets, V.region, kept, options.min_dihedral, options.max_radius_edge);
+  if (split.inserted + split.flips > 0) move_again();
+  if (remesh && improvement.min_dihedral_after < options.min_dihedral) {
+    split.remeshed = remesh_slivers(V.points, V.tets, V.region, kept, fixed, options).remeshed;
+    if (split.remeshed > 0) move_again();
   }
+  split.failed = count_below_dihedral(V.points, V.tets, options.min_dihedral);
 }
 
 // One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
@@ -74,7 +83,8 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
       throw std::runtime_error(what + ": its tets fill " + std::to_string(volume) + " of the " +
                                std::to_string(job.volume) + " its boundary encloses");
   }
-  sliver_passes(V, points.size(), job.triangles, options, r.improvement, r.sliver_split);
+  // A piece keeps its separators: the cavities along them are meshed afresh after the merge, with the separators free.
+  sliver_passes(V, points.size(), job.triangles, options, job.pieces == 1, r.improvement, r.sliver_split);
   r.runs = {{job.material, std::chrono::duration<double>(t1 - t0).count(),
              std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size(),
              job.piece, job.pieces}};
@@ -270,6 +280,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     out.improvement.moves += r.improvement.moves;
     out.sliver_split.flips += r.sliver_split.flips;
     out.sliver_split.inserted += r.sliver_split.inserted;
+    out.sliver_split.remeshed += r.sliver_split.remeshed;
     out.sliver_split.failed += r.sliver_split.failed;
     first = false;
   }
@@ -279,11 +290,12 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     // left are this pass's (`failed` is not summed with the runs': those the seams freed may be mended here).
     TetImproveReport seam;
     SliverSplitReport refill;
-    sliver_passes(T, points.size(), triangles, options, seam, refill);
+    sliver_passes(T, points.size(), triangles, options, true, seam, refill);
     out.improvement.moves += seam.moves;
     out.improvement.min_dihedral_after = seam.min_dihedral_after;
     out.sliver_split.flips += refill.flips;
     out.sliver_split.inserted += refill.inserted;
+    out.sliver_split.remeshed += refill.remeshed;
     out.sliver_split.failed = refill.failed;
   }
   out.seam_seconds = seconds_since(t_seams);

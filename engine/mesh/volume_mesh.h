@@ -3,8 +3,9 @@
 //
 // Each material is meshed on its own: one TetGen run (-pqAY) over the interface triangles that bound it, with the
 // seeds of its components as regions and the seeds of every other material's components as holes (so cavities held
-// by other materials are carved out, not meshed twice), then the sliver passes of smooth.h (improve_tets,
-// split_slivers) on its tets. -Y puts no point on an input triangle, so two materials meet on exactly the interface
+// by other materials are carved out, not meshed twice), then the sliver passes on its tets: those of smooth.h
+// (improve_tets, split_slivers), then, for the slivers they leave, remesh_slivers.h (the cavity around each meshed
+// afresh by TetGen). -Y puts no point on an input triangle, so two materials meet on exactly the interface
 // triangles, as faces of tets on both sides, and the runs are independent: they go in parallel (the thread pool's
 // limit, largest boundary first), each TetGen run in a child process because a failing TetGen can kill its process
 // (child_process.h), its sliver passes back in this process (they use the thread pool, which a forked child of a
@@ -16,9 +17,9 @@
 // both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only). A
 // piece whose tets do not fill the volume its boundary encloses, or a refused cut, meshes its material whole. After
 // the merge, where pieces were made, the sliver passes run once more over the whole mesh with the separators' points
-// free and only the interface triangles kept; some slivers stay (measured on the head: 38 of 21 M tets, from 7.5
-// degrees), which is why one run per material is the default. The result depends on the number of runs (with 0, on
-// the thread limit), not otherwise on the thread count.
+// free and only the interface triangles kept (a piece's own passes leave its cavities alone: its separators are
+// kept there). The result depends on the number of runs (with 0, on the thread limit), not otherwise on the thread
+// count.
 // A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //

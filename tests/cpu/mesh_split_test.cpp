@@ -151,6 +151,8 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
     for (const auto& run : cut.runs) pieces += run.material == 1 && run.pieces > 1;
     MESSAGE("jitter " << jitter << ": " << pieces << " pieces of material 1; " << cut.tets.tets.size() << " tets against "
                       << whole.tets.tets.size() << " whole; min dihedral " << cut.improvement.min_dihedral_after
+                      << " (whole " << whole.improvement.min_dihedral_after << "), below 12: " << cut.sliver_split.failed
+                      << " (whole " << whole.sliver_split.failed << "), remeshed " << cut.sliver_split.remeshed
                       << (cut.unsplit_because.empty() ? "" : "; " + cut.unsplit_because[0]));
     if (jitter == 0.0) {
       CHECK(pieces >= 2);
@@ -190,6 +192,7 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
       for (const auto& [f, who] : faces) unpaired += who.size() == 1;
       CHECK(unpaired == outer.triangles.size());  // the outer sphere only: no gap along a separator
       CHECK(mesh::tet_stats(T.points, T.tets).min_dihedral_deg >= 10.0);
+      CHECK(r->sliver_split.failed == mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral));
     }
   }
 }

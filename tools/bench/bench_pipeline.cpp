@@ -209,7 +209,8 @@ int main(int argc, char** argv) {
         if (!only_surfaces)
           j["slivers"] = {{"min_dihedral_deg_from_tetgen", rep.tet_improvement.min_dihedral_before},
                           {"moves", rep.tet_improvement.moves}, {"flips", rep.sliver_split.flips},
-                          {"splits", rep.sliver_split.inserted}, {"left", rep.sliver_split.failed},
+                          {"splits", rep.sliver_split.inserted}, {"cavities_remeshed", rep.sliver_split.remeshed},
+                          {"left", rep.sliver_split.failed},
                           {"separator_points", rep.volume_separator_points}};
         std::cout << j.dump() << '\n';
         if (!sweep.empty()) {

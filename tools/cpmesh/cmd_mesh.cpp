@@ -213,6 +213,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["sliver_moves"] = rep.tet_improvement.moves;
             j["volume_mesh"]["sliver_flips"] = rep.sliver_split.flips;
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
+            j["volume_mesh"]["sliver_cavities_remeshed"] = rep.sliver_split.remeshed;
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
             j["volume_mesh"]["runs"] = nlohmann::json::array();
             for (const auto& run : rep.volume_runs)
@@ -260,10 +261,12 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty()) {
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
-                            "moves, %zu flips, %zu splits), radius-edge max %.2f\n",
+                            "moves, %zu flips, %zu splits, %zu cavities remeshed; %zu tets left below the bound), "
+                            "radius-edge max %.2f\n",
                             rep.volume.tets, rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
-                            rep.sliver_split.flips, rep.sliver_split.inserted, rep.volume.max_radius_edge);
+                            rep.sliver_split.flips, rep.sliver_split.inserted, rep.sliver_split.remeshed,
+                            rep.sliver_split.failed, rep.volume.max_radius_edge);
                 for (const auto& run : rep.volume_runs) {
                   std::string who = run.material < rep.materials.size()
                                         ? "material " + std::to_string(rep.materials[run.material].label)

@@ -1,0 +1,282 @@
+#include "mesh/remesh_slivers.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_map>
+#include <unordered_set>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mesh/elements_around.h"
+#include "mesh/face_key.h"
+#include "mesh/quality.h"
+
+namespace cpmesh::mesh {
+
+namespace {
+
+constexpr uint32_t kNone = UINT32_MAX;
+
+double min_dihedral(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
+  return dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]])[0];
+}
+
+struct Cavity {
+  std::vector<uint32_t> tets;
+  std::vector<std::array<uint32_t, 3>> boundary;
+  int region = 0;
+  double volume = 0, worst = 0;
+};
+
+}  // namespace
+
+SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
+                                  std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
+                                  size_t fixed, const QualityOptions& options, int rings) {
+  SliverRemeshReport report;
+  const double target = options.min_dihedral * M_PI / 180;
+  std::vector<uint8_t> below(tets.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) below[t] = min_dihedral(P, tets[t]) < target;
+  });
+  std::vector<uint32_t> bad;
+  for (uint32_t t = 0; t < tets.size(); ++t)
+    if (below[t]) bad.push_back(t);
+  report.slivers = bad.size();
+  if (bad.empty()) return report;
+  const bool had_regions = !region.empty();
+  if (!had_regions) region.assign(tets.size(), 0);
+
+  const ElementsAround<4> around(P.size(), tets);
+  std::unordered_set<FaceKey, FaceKeyHash> kept_faces;
+  kept_faces.reserve(kept.size() * 2);
+  for (const auto& f : kept) kept_faces.insert(FaceKey(f));
+  auto neighbour = [&](uint32_t t, int i) { return tet_across(around, tets, t, i); };
+  // Across face i of t, within the region and not through a kept face: the neighbour, else kNone.
+  auto step = [&](uint32_t t, int i) {
+    const uint32_t u = neighbour(t, i);
+    if (u == kNone || region[u] != region[t] || kept_faces.count(FaceKey(face_opposite(tets[t], i)))) return kNone;
+    return u;
+  };
+
+  // Each bad tet's cavity; overlapping ones merged (union-find over the bad tets, through the tets they claim).
+  std::vector<uint32_t> parent(bad.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::unordered_map<uint32_t, uint32_t> claimed;  // tet -> a bad tet's index whose cavity holds it
+  for (uint32_t b = 0; b < bad.size(); ++b) {
+    const uint32_t start = bad[b];
+    const auto& k = tets[start];
+    std::vector<uint32_t> cavity{start};
+    std::unordered_set<uint32_t> in{start};
+    // The tets sharing a vertex with the bad one, reached across faces; then rings of face neighbours.
+    for (size_t q = 0; q < cavity.size(); ++q)
+      for (int i = 0; i < 4; ++i) {
+        const uint32_t u = step(cavity[q], i);
+        if (u == kNone || in.count(u)) continue;
+        if (!std::any_of(k.begin(), k.end(), [&](uint32_t v) { return has_vertex(tets[u], v); })) continue;
+        in.insert(u);
+        cavity.push_back(u);
+      }
+    for (int ring = 0; ring < rings; ++ring) {
+      const size_t n = cavity.size();
+      for (size_t q = 0; q < n; ++q)
+        for (int i = 0; i < 4; ++i) {
+          const uint32_t u = step(cavity[q], i);
+          if (u != kNone && in.insert(u).second) cavity.push_back(u);
+        }
+    }
+    for (uint32_t t : cavity) {
+      const auto [it, fresh] = claimed.try_emplace(t, b);
+      if (!fresh) parent[find(b)] = find(it->second);
+    }
+  }
+  // The merged cavities, in the order of their first bad tet; each tet's cavity.
+  std::unordered_map<uint32_t, uint32_t> cavity_of_root;
+  std::vector<Cavity> cavities;
+  std::unordered_map<uint32_t, uint32_t> cavity_of_tet;
+  cavity_of_tet.reserve(claimed.size());
+  for (uint32_t b = 0; b < bad.size(); ++b) {
+    const auto [it, fresh] = cavity_of_root.try_emplace(find(b), uint32_t(cavities.size()));
+    if (fresh) cavities.push_back({{}, {}, region[bad[b]], 0, 0});
+  }
+  {
+    std::vector<std::pair<uint32_t, uint32_t>> members(claimed.begin(), claimed.end());
+    std::sort(members.begin(), members.end());  // tet order: the same cavities whatever the hash map's order
+    for (const auto& [t, b] : members) {
+      const uint32_t c = cavity_of_root[find(b)];
+      cavities[c].tets.push_back(t);
+      cavity_of_tet.emplace(t, c);
+    }
+  }
+  report.cavities = cavities.size();
+
+  // Boundary faces, the old volume and worst angle; a cavity that would drop a fixed vertex is left alone.
+  std::vector<uint8_t> usable(cavities.size(), 1);
+  for (uint32_t c = 0; c < cavities.size(); ++c) {
+    Cavity& cav = cavities[c];
+    std::unordered_set<uint32_t> on_boundary, all;
+    cav.worst = M_PI;
+    for (uint32_t t : cav.tets) {
+      const auto& k = tets[t];
+      cav.volume += tet_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
+      cav.worst = std::min(cav.worst, min_dihedral(P, k));
+      for (uint32_t v : k) all.insert(v);
+      for (int i = 0; i < 4; ++i) {
+        const uint32_t u = neighbour(t, i);
+        if (u != kNone) {
+          const auto it = cavity_of_tet.find(u);
+          if (it != cavity_of_tet.end() && it->second == c) continue;
+        }
+        const auto f = face_opposite(k, i);
+        cav.boundary.push_back(f);
+        for (uint32_t v : f) on_boundary.insert(v);
+      }
+    }
+    for (uint32_t v : all)
+      if (v < fixed && !on_boundary.count(v)) usable[c] = 0;
+  }
+
+  // TetGen over the cavities given (their boundary faces, each face once; one seed per cavity, attribute c + 1).
+  // Returns, per cavity given, its new tets in the caller's numbering (new points appended to P only on success).
+  auto remesh = [&](const std::vector<uint32_t>& which, std::vector<std::vector<std::array<uint32_t, 4>>>& made,
+                    std::vector<glm::dvec3>& new_points) {
+    std::unordered_map<uint32_t, uint32_t> local;
+    std::vector<uint32_t> global;
+    std::vector<glm::dvec3> local_points;
+    std::vector<std::array<uint32_t, 3>> faces;
+    std::unordered_set<FaceKey, FaceKeyHash> seen;
+    std::vector<Region> seeds;
+    for (uint32_t c : which) {
+      for (const auto& f : cavities[c].boundary) {
+        if (!seen.insert(FaceKey(f)).second) continue;
+        std::array<uint32_t, 3> g{};
+        for (int a = 0; a < 3; ++a) {
+          const auto [it, fresh] = local.try_emplace(f[size_t(a)], uint32_t(global.size()));
+          if (fresh) {
+            global.push_back(f[size_t(a)]);
+            local_points.push_back(P[f[size_t(a)]]);
+          }
+          g[size_t(a)] = it->second;
+        }
+        faces.push_back(g);
+      }
+      const auto& k = tets[cavities[c].tets.front()];
+      seeds.push_back({(P[k[0]] + P[k[1]] + P[k[2]] + P[k[3]]) / 4.0, int(c) + 1});
+    }
+    QualityOptions o = options;
+    o.keep_surface = true;
+    const Tets T = constrained_quality(local_points, faces, {}, seeds, o);
+    made.assign(which.size(), {});
+    std::unordered_map<uint32_t, size_t> slot;
+    for (size_t i = 0; i < which.size(); ++i) slot[which[i]] = i;
+    new_points.assign(T.points.begin() + std::ptrdiff_t(local_points.size()), T.points.end());
+    for (size_t t = 0; t < T.tets.size(); ++t) {
+      // Attribute 0: a pocket the cavities enclose but do not hold (other tets they surround), meshed by TetGen too.
+      const auto it = slot.find(uint32_t(T.region[t] - 1));
+      if (it == slot.end()) continue;
+      std::array<uint32_t, 4> q{};
+      for (int a = 0; a < 4; ++a) {
+        const uint32_t v = T.tets[t][size_t(a)];
+        q[size_t(a)] = v < global.size() ? global[v] : uint32_t(P.size() + (v - global.size()));
+      }
+      made[it->second].push_back(q);
+    }
+  };
+  std::vector<uint32_t> todo;
+  for (uint32_t c = 0; c < cavities.size(); ++c)
+    if (usable[c]) todo.push_back(c);
+  std::vector<std::vector<std::array<uint32_t, 4>>> made(cavities.size());
+  std::vector<uint8_t> has_mesh(cavities.size(), 0);
+  std::vector<glm::dvec3> extra;  // new points, numbered from P.size()
+  auto run = [&](const std::vector<uint32_t>& which) {
+    std::vector<std::vector<std::array<uint32_t, 4>>> m;
+    std::vector<glm::dvec3> np;
+    try {
+      remesh(which, m, np);
+    } catch (const std::exception&) {
+      ++report.tetgen_failures;
+      return false;
+    }
+    // Renumber this run's new points after those of earlier runs.
+    const auto shift = uint32_t(extra.size());
+    for (size_t i = 0; i < which.size(); ++i) {
+      for (auto& q : m[i])
+        for (auto& v : q) v = v < P.size() ? v : v + shift;
+      made[which[i]] = std::move(m[i]);
+      has_mesh[which[i]] = 1;
+    }
+    extra.insert(extra.end(), np.begin(), np.end());
+    return true;
+  };
+  // One run for all; where TetGen gives up, halves, down to single cavities.
+  std::function<void(const std::vector<uint32_t>&)> attempt = [&](const std::vector<uint32_t>& which) {
+    if (which.empty() || run(which) || which.size() == 1) return;
+    const auto middle = which.begin() + std::ptrdiff_t(which.size() / 2);
+    attempt({which.begin(), middle});
+    attempt({middle, which.end()});
+  };
+  attempt(todo);
+
+  // Keep a cavity's new tets where they fill it and raise its worst angle (the new points of those that do not are
+  // left unused and dropped below).
+  P.insert(P.end(), extra.begin(), extra.end());
+  const std::vector<glm::dvec3>& all = P;
+  std::vector<uint8_t> dead(tets.size(), 0);
+  const size_t old_count = tets.size();
+  for (uint32_t c = 0; c < cavities.size(); ++c) {
+    if (!has_mesh[c] || made[c].empty()) continue;
+    double volume = 0, worst = M_PI;
+    for (const auto& q : made[c]) {
+      volume += tet_volume(all[q[0]], all[q[1]], all[q[2]], all[q[3]]);
+      worst = std::min(worst, min_dihedral(all, q));
+    }
+    if (std::fabs(volume - cavities[c].volume) > 1e-9 * cavities[c].volume || worst <= cavities[c].worst + 1e-3) continue;
+    // The same handedness as the tets they replace.
+    const auto& k0 = tets[cavities[c].tets.front()];
+    const bool positive = glm::dot(P[k0[1]] - P[k0[0]], glm::cross(P[k0[2]] - P[k0[0]], P[k0[3]] - P[k0[0]])) > 0;
+    for (uint32_t t : cavities[c].tets) dead[t] = 1;
+    for (auto q : made[c]) {
+      const bool p = glm::dot(all[q[1]] - all[q[0]], glm::cross(all[q[2]] - all[q[0]], all[q[3]] - all[q[0]])) > 0;
+      if (p != positive) std::swap(q[1], q[2]);
+      tets.push_back(q);
+      region.push_back(cavities[c].region);
+    }
+    ++report.remeshed;
+  }
+  // Drop the replaced tets, then the points >= fixed that no tet uses.
+  size_t w = 0;
+  for (size_t t = 0; t < tets.size(); ++t) {
+    if (t < old_count && dead[t]) continue;
+    tets[w] = tets[t];
+    region[w] = region[t];
+    ++w;
+  }
+  tets.resize(w);
+  region.resize(w);
+  std::vector<uint8_t> used(P.size(), 0);
+  for (const auto& q : tets)
+    for (uint32_t v : q) used[v] = 1;
+  std::vector<uint32_t> index(P.size());
+  size_t n = 0;
+  for (size_t v = 0; v < P.size(); ++v) {
+    if (v >= fixed && !used[v]) continue;
+    index[v] = uint32_t(n);
+    P[n++] = P[v];
+  }
+  report.points_removed = P.size() - n;
+  P.resize(n);
+  for (auto& q : tets)
+    for (auto& v : q) v = index[v];
+  if (!had_regions) region.clear();
+  return report;
+}
+
+}  // namespace cpmesh::mesh

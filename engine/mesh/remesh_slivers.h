@@ -1,0 +1,39 @@
+#pragma once
+// The last sliver pass: the slivers that moving vertices (improve_tets) and one-vertex refills (split_slivers) leave
+// are cut out with the tets around them and each cavity is meshed afresh by TetGen (-pqAY over the cavity's boundary
+// faces, which stay as they are), the same refinement that a whole TetGen run applies, now local. It mends what the
+// other passes cannot: a tet whose four vertices all lie on kept interface triangles needs new vertices placed
+// together, and a material meshed in pieces (volume_mesh.h) leaves such tets along its separators, where each piece
+// had to keep the other's faces; after the merge the separator is an inner surface like any other.
+//
+// A cavity: the bad tet, the tets sharing a vertex with it and reachable across faces, then `rings` rings of face
+// neighbours; always within the bad tet's region and never across a face in `kept` (the interface triangles), and
+// never dropping a vertex below `fixed` (such a cavity is left alone). Overlapping cavities are merged. All cavities go
+// to one TetGen run in a child process (child_process.h), one region seed each; where TetGen gives up, the cavities
+// are halved and tried again, down to single ones. A cavity's new tets replace its old ones only when they fill the same volume (1e-9) and their
+// smallest dihedral angle beats the old one's. The inner vertices of a remeshed cavity are gone: points >= `fixed`
+// that no tet uses any more are removed and the later ones renumbered (points below `fixed` never move or go).
+// Deterministic.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "mesh/tetgen.h"
+
+namespace cpmesh::mesh {
+
+struct SliverRemeshReport {
+  size_t slivers = 0;    // tets below the dihedral bound on entry
+  size_t cavities = 0;   // after merging
+  size_t remeshed = 0;   // cavities replaced by their new mesh
+  size_t tetgen_failures = 0;  // runs TetGen gave up on (then halved)
+  size_t points_removed = 0;
+};
+
+SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
+                                  std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
+                                  size_t fixed, const QualityOptions& options, int rings = 3);
+
+}  // namespace cpmesh::mesh
