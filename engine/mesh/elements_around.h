@@ -52,6 +52,14 @@ bool has_vertex(const std::array<uint32_t, N>& e, uint32_t v) {
   return std::find(e.begin(), e.end(), v) != e.end();
 }
 
+// Whether triangle f (any vertex order) is one of `triangles`, looked up among those around its first vertex.
+inline bool has_triangle(const ElementsAround<3>& around, const std::vector<std::array<uint32_t, 3>>& triangles,
+                         const std::array<uint32_t, 3>& f) {
+  for (uint32_t k : around[f[0]])
+    if (has_vertex(triangles[k], f[1]) && has_vertex(triangles[k], f[2])) return true;
+  return false;
+}
+
 // The face of tet t opposite its vertex i (the other three, in order).
 inline std::array<uint32_t, 3> face_opposite(const std::array<uint32_t, 4>& t, int i) {
   std::array<uint32_t, 3> f{};

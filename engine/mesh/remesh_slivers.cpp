@@ -14,6 +14,7 @@
 #include "mesh/elements_around.h"
 #include "mesh/face_key.h"
 #include "mesh/quality.h"
+#include "mesh/smooth.h"
 
 namespace cpmesh::mesh {
 
@@ -30,6 +31,8 @@ struct Cavity {
   std::vector<std::array<uint32_t, 3>> boundary;
   int region = 0;
   double volume = 0, worst = 0;
+  size_t below = 0;  // tets under the dihedral bound
+  glm::dvec3 seed{0.0};
 };
 
 }  // namespace
@@ -52,14 +55,13 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   if (!had_regions) region.assign(tets.size(), 0);
 
   const ElementsAround<4> around(P.size(), tets);
-  std::unordered_set<FaceKey, FaceKeyHash> kept_faces;
-  kept_faces.reserve(kept.size() * 2);
-  for (const auto& f : kept) kept_faces.insert(FaceKey(f));
+  const ElementsAround<3> kept_around(P.size(), kept);
   auto neighbour = [&](uint32_t t, int i) { return tet_across(around, tets, t, i); };
+  auto is_kept = [&](uint32_t t, int i) { return has_triangle(kept_around, kept, face_opposite(tets[t], i)); };
   // Across face i of t, within the region and not through a kept face: the neighbour, else kNone.
   auto step = [&](uint32_t t, int i) {
     const uint32_t u = neighbour(t, i);
-    if (u == kNone || region[u] != region[t] || kept_faces.count(FaceKey(face_opposite(tets[t], i)))) return kNone;
+    if (u == kNone || region[u] != region[t] || is_kept(t, i)) return kNone;
     return u;
   };
 
@@ -105,7 +107,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   cavity_of_tet.reserve(claimed.size());
   for (uint32_t b = 0; b < bad.size(); ++b) {
     const auto [it, fresh] = cavity_of_root.try_emplace(find(b), uint32_t(cavities.size()));
-    if (fresh) cavities.push_back({{}, {}, region[bad[b]], 0, 0});
+    if (fresh) cavities.push_back({{}, {}, region[bad[b]]});
   }
   {
     std::vector<std::pair<uint32_t, uint32_t>> members(claimed.begin(), claimed.end());
@@ -118,22 +120,30 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   }
   report.cavities = cavities.size();
 
-  // Boundary faces, the old volume and worst angle; a cavity that would drop a fixed vertex is left alone.
+  // Boundary faces, the old volume, worst angle and slivers, and the best-shaped tet (its centroid seeds the cavity's
+  // region). A cavity that would drop a fixed vertex or a kept face (one between two of its tets) is left alone.
   std::vector<uint8_t> usable(cavities.size(), 1);
   for (uint32_t c = 0; c < cavities.size(); ++c) {
     Cavity& cav = cavities[c];
     std::unordered_set<uint32_t> on_boundary, all;
     cav.worst = M_PI;
+    double best = -1;
     for (uint32_t t : cav.tets) {
       const auto& k = tets[t];
       cav.volume += tet_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
-      cav.worst = std::min(cav.worst, min_dihedral(P, k));
+      const double angle = min_dihedral(P, k);
+      cav.worst = std::min(cav.worst, angle);
+      cav.below += angle < target;
+      if (angle > best) best = angle, cav.seed = (P[k[0]] + P[k[1]] + P[k[2]] + P[k[3]]) / 4.0;
       for (uint32_t v : k) all.insert(v);
       for (int i = 0; i < 4; ++i) {
         const uint32_t u = neighbour(t, i);
         if (u != kNone) {
           const auto it = cavity_of_tet.find(u);
-          if (it != cavity_of_tet.end() && it->second == c) continue;
+          if (it != cavity_of_tet.end() && it->second == c) {
+            if (is_kept(t, i)) usable[c] = 0;
+            continue;
+          }
         }
         const auto f = face_opposite(k, i);
         cav.boundary.push_back(f);
@@ -168,8 +178,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
         }
         faces.push_back(g);
       }
-      const auto& k = tets[cavities[c].tets.front()];
-      seeds.push_back({(P[k[0]] + P[k[1]] + P[k[2]] + P[k[3]]) / 4.0, int(c) + 1});
+      seeds.push_back({cavities[c].seed, int(c) + 1});
     }
     QualityOptions o = options;
     o.keep_surface = true;
@@ -179,7 +188,8 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     for (size_t i = 0; i < which.size(); ++i) slot[which[i]] = i;
     new_points.assign(T.points.begin() + std::ptrdiff_t(local_points.size()), T.points.end());
     for (size_t t = 0; t < T.tets.size(); ++t) {
-      // Attribute 0: a pocket the cavities enclose but do not hold (other tets they surround), meshed by TetGen too.
+      // A pocket the cavities enclose but do not hold (other tets they surround) is meshed too, under an attribute
+      // TetGen numbers past the seeds' (no cavity of this run).
       const auto it = slot.find(uint32_t(T.region[t] - 1));
       if (it == slot.end()) continue;
       std::array<uint32_t, 4> q{};
@@ -193,6 +203,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   std::vector<uint32_t> todo;
   for (uint32_t c = 0; c < cavities.size(); ++c)
     if (usable[c]) todo.push_back(c);
+
   std::vector<std::vector<std::array<uint32_t, 4>>> made(cavities.size());
   std::vector<uint8_t> has_mesh(cavities.size(), 0);
   std::vector<glm::dvec3> extra;  // new points, numbered from P.size()
@@ -225,20 +236,56 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   };
   attempt(todo);
 
-  // Keep a cavity's new tets where they fill it and raise its worst angle (the new points of those that do not are
-  // left unused and dropped below).
+  // Each new mesh gets the vertex moves the old tets had (improve_tets: its new points move, the cavity's boundary
+  // stays), then is kept where it fills the cavity, raises its worst angle and leaves no more slivers (the new points
+  // of one that is not are left unused and dropped below).
+  const size_t first_new = P.size();
   P.insert(P.end(), extra.begin(), extra.end());
+  tbb::parallel_for(size_t(0), cavities.size(), [&](size_t c) {
+    if (!has_mesh[c] || made[c].empty()) return;
+    std::unordered_map<uint32_t, uint32_t> local;
+    std::vector<uint32_t> global;
+    std::vector<glm::dvec3> local_points;
+    for (const bool boundary : {true, false})  // the cavity's boundary vertices first: they stay
+      for (const auto& q : made[c])
+        for (uint32_t v : q)
+          if ((v < first_new) == boundary && local.emplace(v, uint32_t(global.size())).second) {
+            global.push_back(v);
+            local_points.push_back(P[v]);
+          }
+    size_t fixed_here = 0;
+    while (fixed_here < global.size() && global[fixed_here] < first_new) ++fixed_here;
+    std::vector<std::array<uint32_t, 4>> local_tets = made[c];
+    for (auto& q : local_tets)
+      for (auto& v : q) v = local.at(v);
+    improve_tets(local_points, local_tets, fixed_here, options.min_dihedral, options.max_radius_edge);
+    for (size_t i = fixed_here; i < global.size(); ++i) P[global[i]] = local_points[i];
+  });
   const std::vector<glm::dvec3>& all = P;
   std::vector<uint8_t> dead(tets.size(), 0);
   const size_t old_count = tets.size();
   for (uint32_t c = 0; c < cavities.size(); ++c) {
     if (!has_mesh[c] || made[c].empty()) continue;
     double volume = 0, worst = M_PI;
+    size_t below = 0;
     for (const auto& q : made[c]) {
       volume += tet_volume(all[q[0]], all[q[1]], all[q[2]], all[q[3]]);
-      worst = std::min(worst, min_dihedral(all, q));
+      const double angle = min_dihedral(all, q);
+      worst = std::min(worst, angle);
+      below += angle < target;
     }
-    if (std::fabs(volume - cavities[c].volume) > 1e-9 * cavities[c].volume || worst <= cavities[c].worst + 1e-3) continue;
+    if (std::fabs(volume - cavities[c].volume) > 1e-9 * cavities[c].volume || worst <= cavities[c].worst + 1e-3 ||
+        below > cavities[c].below)
+      continue;
+    // The new tets' own boundary is the cavity's, face for face (-Y puts no point on it).
+    std::unordered_map<FaceKey, int, FaceKeyHash> uses;
+    for (const auto& q : made[c])
+      for (int i = 0; i < 4; ++i) ++uses[FaceKey(face_opposite(q, i))];
+    size_t hull = 0;
+    for (const auto& [f, n] : uses) hull += n == 1;
+    bool same = hull == cavities[c].boundary.size();
+    for (const auto& f : cavities[c].boundary) same = same && uses.count(FaceKey(f)) && uses[FaceKey(f)] == 1;
+    if (!same) continue;
     // The same handedness as the tets they replace.
     const auto& k0 = tets[cavities[c].tets.front()];
     const bool positive = glm::dot(P[k0[1]] - P[k0[0]], glm::cross(P[k0[2]] - P[k0[0]], P[k0[3]] - P[k0[0]])) > 0;
@@ -251,6 +298,11 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     }
     ++report.remeshed;
   }
+  if (report.remeshed == 0) {  // nothing changed: the appended points go again
+    P.resize(P.size() - extra.size());
+    if (!had_regions) region.clear();
+    return report;
+  }
   // Drop the replaced tets, then the points >= fixed that no tet uses.
   size_t w = 0;
   for (size_t t = 0; t < tets.size(); ++t) {
@@ -261,6 +313,12 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   }
   tets.resize(w);
   region.resize(w);
+  report.points_removed = remove_unused_points(P, tets, fixed);
+  if (!had_regions) region.clear();
+  return report;
+}
+
+size_t remove_unused_points(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets, size_t fixed) {
   std::vector<uint8_t> used(P.size(), 0);
   for (const auto& q : tets)
     for (uint32_t v : q) used[v] = 1;
@@ -271,12 +329,12 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     index[v] = uint32_t(n);
     P[n++] = P[v];
   }
-  report.points_removed = P.size() - n;
+  const size_t removed = P.size() - n;
   P.resize(n);
-  for (auto& q : tets)
-    for (auto& v : q) v = index[v];
-  if (!had_regions) region.clear();
-  return report;
+  if (removed > 0)
+    for (auto& q : tets)
+      for (auto& v : q) v = index[v];
+  return removed;
 }
 
 }  // namespace cpmesh::mesh

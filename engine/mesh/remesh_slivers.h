@@ -7,12 +7,14 @@
 // had to keep the other's faces; after the merge the separator is an inner surface like any other.
 //
 // A cavity: the bad tet, the tets sharing a vertex with it and reachable across faces, then `rings` rings of face
-// neighbours; always within the bad tet's region and never across a face in `kept` (the interface triangles), and
-// never dropping a vertex below `fixed` (such a cavity is left alone). Overlapping cavities are merged. All cavities go
-// to one TetGen run in a child process (child_process.h), one region seed each; where TetGen gives up, the cavities
-// are halved and tried again, down to single ones. A cavity's new tets replace its old ones only when they fill the same volume (1e-9) and their
-// smallest dihedral angle beats the old one's. The inner vertices of a remeshed cavity are gone: points >= `fixed`
-// that no tet uses any more are removed and the later ones renumbered (points below `fixed` never move or go).
+// neighbours; always within the bad tet's region and never across a face in `kept` (the interface triangles).
+// Overlapping cavities are merged; a merged cavity that would drop a vertex below `fixed` or hold a kept face
+// between two of its tets is left alone. All cavities go to one TetGen run in a child process (child_process.h), one
+// region seed each (the centroid of its best-shaped tet); where TetGen gives up, the cavities are halved and tried
+// again, down to single ones. A cavity's new tets replace its old ones only when they fill the same volume (1e-9),
+// have exactly its boundary faces as their own, raise its smallest dihedral angle and leave no more tets below the
+// bound. The inner vertices of a remeshed cavity are gone: points >= `fixed` that no tet uses any more are removed
+// and the later ones renumbered (points below `fixed` never move or go).
 // Deterministic.
 #include <array>
 #include <cstdint>
@@ -31,6 +33,9 @@ struct SliverRemeshReport {
   size_t tetgen_failures = 0;  // runs TetGen gave up on (then halved)
   size_t points_removed = 0;
 };
+
+// Removes the points >= fixed that no tet uses, numbering the later ones down; returns how many.
+size_t remove_unused_points(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets, size_t fixed);
 
 SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
                                   std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,

@@ -339,11 +339,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   // Neighbours across faces and kept faces are found from the elements around a face's first vertex.
   ElementsAround<4> around(P.size(), tets);
   const ElementsAround<3> kept_around(P.size(), kept);
-  auto is_kept = [&](const std::array<uint32_t, 3>& f) {
-    for (uint32_t k : kept_around[f[0]])
-      if (has_vertex(kept[k], f[1]) && has_vertex(kept[k], f[2])) return true;
-    return false;
-  };
+  auto is_kept = [&](const std::array<uint32_t, 3>& f) { return has_triangle(kept_around, kept, f); };
   auto link = [&](uint32_t t) {
     for (uint32_t v : tets[t]) around.add(v, t);
   };

@@ -17,7 +17,10 @@
 //
 // It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
 // pieces: a boundary that is not closed, planes that coincide or cross no boundary triangle, a separator face that
-// crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed. It
+// crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed; and where
+// it would make a poor mesh: a separator of which more than 30% of the triangles join boundary vertices only (the
+// planes cross thin layers, where both pieces must keep triangles spanning the layer and the slivers along them
+// outlast every sliver pass). It
 // throws where TetGen cannot tetrahedralize the points at all (fewer than 4).
 //
 // Inputs:  points     every point, in the caller's numbering (the boundary's vertices among them)
@@ -41,6 +44,7 @@ struct MaterialSplit {
                                                              // oriented out of the piece
   std::vector<double> volumes;  // each piece's enclosed volume (of its oriented boundary): its tets must fill it
   size_t separator_triangles = 0;
+  size_t separator_on_boundary = 0;  // of them, those with all three vertices on the boundary (no lattice point)
   size_t gap_triangles = 0;     // boundary triangles that are no Delaunay face of the cut's tetrahedralization
   int axis = 0;                 // the planes' normal (0: x, 1: y, 2: z)
   std::vector<double> planes;   // where they cut that axis

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <numeric>
+#include <unordered_map>
 #include <stdexcept>
 #include <string>
 
@@ -11,6 +13,8 @@
 #include <tbb/parallel_for.h>
 
 #include "mesh/child_process.h"
+#include "mesh/elements_around.h"
+#include "mesh/face_key.h"
 #include "mesh/quality.h"
 #include "mesh/remesh_slivers.h"
 #include "mesh/split_material.h"
@@ -50,6 +54,36 @@ void sliver_passes(Tets& V, size_t fixed, const std::vector<std::array<uint32_t,
   split.failed = count_below_dihedral(V.points, V.tets, options.min_dihedral);
 }
 
+}  // namespace
+
+void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
+  std::unordered_map<FaceKey, uint32_t, FaceKeyHash> triangle_of;
+  triangle_of.reserve(boundary.size() * 2);
+  for (uint32_t i = 0; i < boundary.size(); ++i) triangle_of.emplace(FaceKey(boundary[i]), i);
+  std::map<int, long> inside;  // per region: faces with the region inside minus faces with it outside
+  for (size_t t = 0; t < V.tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) {
+      const auto it = triangle_of.find(FaceKey(face_opposite(V.tets[t], c)));
+      if (it == triangle_of.end()) continue;
+      const auto& f = boundary[it->second];
+      const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
+      inside[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
+    }
+  size_t w = 0;
+  for (size_t t = 0; t < V.tets.size(); ++t)
+    if (inside[V.region[t]] > 0) {
+      V.tets[w] = V.tets[t];
+      V.region[w] = V.region[t];
+      ++w;
+    }
+  if (w == V.tets.size()) return;
+  V.tets.resize(w);
+  V.region.resize(w);
+  remove_unused_points(V.points, V.tets, fixed);
+}
+
+namespace {
+
 // One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
 // back), then the sliver passes of smooth.h here, where they may use the thread pool (a forked child of a
 // multithreaded process must not).
@@ -74,8 +108,12 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
   // TetGen keeps the input points first and unmoved (-Y: none on the interface triangles); the rest are free.
   V.points.insert(V.points.begin(), points.begin(), points.end());
   if (job.pieces > 1) {
-    // A piece has no region seed (a component cut by a plane has none on one side): all of it is the material. Its
-    // tets must fill the volume its boundary encloses, or the separator went astray near a gap (split_material.h).
+    // A piece has no region seed (a component cut by a plane has none on one side), so TetGen numbers each region its
+    // faces enclose. The material's regions lie inside the piece's boundary triangles (oriented out of it); a region
+    // outside them is a pocket the piece's boundary closes off without a hole seed (near a gap, where the separator
+    // followed a cluster of doubtful tets: split_material.h), and its tets go. The rest must fill the volume the
+    // boundary encloses.
+    drop_pockets(V, job.triangles, points.size());
     V.region.assign(V.tets.size(), int(job.material) + 1);
     double volume = 0;
     for (const auto& t : V.tets) volume += tet_volume(V.points[t[0]], V.points[t[1]], V.points[t[2]], V.points[t[3]]);

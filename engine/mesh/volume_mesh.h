@@ -14,8 +14,9 @@
 // materials, the largest run 79 s of 87 on 16 cores). Asked for (QualityOptions::runs above 1, or 0: one per core),
 // the runs are shared out in proportion to the materials' boundaries, and a material given two or more is cut into
 // pieces by planes (split_material.h), each piece a run bounded by its boundary triangles and the separators, which
-// both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only). A
-// piece whose tets do not fill the volume its boundary encloses, or a refused cut, meshes its material whole. After
+// both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only),
+// less any region its boundary closes off from outside (drop_pockets). A piece whose tets do not fill the volume its
+// boundary encloses, or a refused cut (split_material.h says when), meshes its material whole. After
 // the merge, where pieces were made, the sliver passes run once more over the whole mesh with the separators' points
 // free and only the interface triangles kept (a piece's own passes leave its cavities alone: its separators are
 // kept there). The result depends on the number of runs (with 0, on the thread limit), not otherwise on the thread
@@ -29,7 +30,8 @@
 //                     (component_representatives in extract.h)
 //          labels     the materials' labels, for error messages
 // Outputs: tets.points  `points` first, unchanged, then the separators' points, then the points the runs added, run by
-//                       run in material order
+//                       run in material order, less those no tet uses after the sliver passes (remesh_slivers.h
+//                       removes the inner points of the cavities it meshes afresh)
 //          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
 #include <array>
 #include <cstdint>
@@ -57,11 +59,16 @@ struct MaterialMeshes {
   SliverSplitReport sliver_split;
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
   std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
-  size_t separator_points = 0;               // the lattice points of the separators (split_material.h)
+  size_t separator_points = 0;               // the lattice points the separators were made with (split_material.h)
   // Where the time went: cutting materials into pieces; the runs (TetGen and their sliver passes, in parallel, with
   // the whole-material reruns); merging, and the sliver passes over the seams where pieces were made.
   double cut_seconds = 0, runs_seconds = 0, seam_seconds = 0;
 };
+
+// Drops the tets of V's regions (V.region: TetGen's attributes, which number the regions no seed names) that lie
+// outside the closed surface `boundary` (oriented outwards), by a vote over the tets' faces on it, and the points
+// >= fixed they leave unused. A material's piece meshed without seeds uses it for pockets its boundary closes off.
+void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed);
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                               const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,

@@ -1,14 +1,17 @@
-// The last sliver pass (remesh_slivers.h): cavities around slivers meshed afresh by TetGen, their boundary kept.
+// The last sliver pass (remesh_slivers.h): cavities around slivers meshed afresh by TetGen, their boundary kept; and
+// drop_pockets (volume_mesh.h), which a material's piece uses for regions its boundary closes off from outside.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <map>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include "mesh/quality.h"
 #include "mesh/remesh_slivers.h"
 #include "mesh/smooth.h"
+#include "mesh/volume_mesh.h"
 
 using namespace cpmesh;
 
@@ -44,6 +47,65 @@ void cube_surface(int n, std::vector<glm::dvec3>& P, std::vector<std::array<uint
         if (x == 0 || y == 0 || z == 0 || x == n || y == n || z == n) P.push_back({x, y, z});
   for (const auto& [f, count] : face_counts(mesh::delaunay(P).tets))
     if (count == 1) triangles.push_back(f);
+}
+
+// Pushes the free vertex (>= fixed) nearest `target` towards the opposite face of one of its tets until that tet is
+// flat (under 8 degrees; 5% of its height left), turning no tet over. Returns the vertex, or UINT32_MAX.
+uint32_t flatten_near(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets, size_t fixed,
+                      const glm::dvec3& target) {
+  const bool positive = signed_volume(P, tets[0]) > 0;
+  auto v = uint32_t(fixed);
+  for (auto w = uint32_t(fixed); w < P.size(); ++w)
+    if (glm::length(P[w] - target) < glm::length(P[v] - target)) v = w;
+  for (const auto& k : tets) {
+    if (std::find(k.begin(), k.end(), v) == k.end()) continue;
+    std::array<glm::dvec3, 3> f;
+    int n = 0;
+    for (uint32_t w : k)
+      if (w != v) f[size_t(n++)] = P[w];
+    const glm::dvec3 normal = glm::normalize(glm::cross(f[1] - f[0], f[2] - f[0]));
+    const glm::dvec3 old = P[v];
+    P[v] -= 0.95 * glm::dot(P[v] - f[0], normal) * normal;
+    bool valid = true;
+    for (const auto& q : tets)
+      if (std::find(q.begin(), q.end(), v) != q.end()) valid = valid && (signed_volume(P, q) > 0) == positive;
+    if (valid && mesh::dihedral_range(P[k[0]], P[k[1]], P[k[2]], P[k[3]])[0] < 8 * M_PI / 180) return v;
+    P[v] = old;
+  }
+  return UINT32_MAX;
+}
+
+// The unit-grid triangles of the n^3 cube's surface and of the inner planes x = c for c in `planes` (two per unit
+// square), over shared points.
+void grid_surfaces(int n, const std::vector<int>& planes, std::vector<glm::dvec3>& P,
+                   std::vector<std::array<uint32_t, 3>>& triangles) {
+  std::map<std::array<int, 3>, uint32_t> id;
+  auto at = [&](std::array<int, 3> q) {
+    const auto [it, fresh] = id.try_emplace(q, uint32_t(P.size()));
+    if (fresh) P.push_back({q[0], q[1], q[2]});
+    return it->second;
+  };
+  auto square_grid = [&](int axis, int c) {  // the plane `axis` = c, squares along the other two axes
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        std::array<uint32_t, 4> q;
+        const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
+        for (int k = 0; k < 4; ++k) {
+          std::array<int, 3> x;
+          x[size_t(axis)] = c;
+          x[size_t((axis + 1) % 3)] = i + du[k];
+          x[size_t((axis + 2) % 3)] = j + dv[k];
+          q[size_t(k)] = at(x);
+        }
+        triangles.push_back({q[0], q[1], q[2]});
+        triangles.push_back({q[0], q[2], q[3]});
+      }
+  };
+  for (int axis = 0; axis < 3; ++axis) {
+    square_grid(axis, 0);
+    square_grid(axis, n);
+  }
+  for (int c : planes) square_grid(0, c);
 }
 
 }  // namespace
@@ -112,8 +174,8 @@ TEST_CASE("remesh_slivers: the slivers of a jittered lattice's Delaunay tets go,
 }
 
 TEST_CASE("remesh_slivers: three slivers in a quality mesh are mended locally; the tets far from them stay") {
-  // TetGen's quality mesh of a 10^3 cube (its few slivers moved away); three inner vertices far apart are pushed towards the opposite face of one
-  // of their tets until it is flat (no tet turned over). Each sliver's cavity is meshed afresh; the rest is untouched.
+  // TetGen's quality mesh of a 10^3 cube (its few slivers moved away); three inner vertices far apart are pushed
+  // towards the opposite face of one of their tets until it is flat (no tet turned over). Each sliver's cavity is meshed afresh; the rest is untouched.
   std::vector<glm::dvec3> surface_points;
   std::vector<std::array<uint32_t, 3>> box;
   cube_surface(10, surface_points, box);
@@ -131,33 +193,11 @@ TEST_CASE("remesh_slivers: three slivers in a quality mesh are mended locally; t
   mesh::improve_tets(P, tets, fixed);  // the few slivers TetGen leaves
   REQUIRE(mesh::count_below_dihedral(P, tets, 12.0) == 0);
   const bool positive = signed_volume(P, tets[0]) > 0;
+  CHECK(positive == (signed_volume(T.points, T.tets[0]) > 0));
   std::vector<uint32_t> moved;
   for (const glm::dvec3 target : {glm::dvec3(2.5), glm::dvec3(7.5, 2.5, 7.5), glm::dvec3(2.5, 7.5, 7.5)}) {
-    uint32_t v = fixed;  // the inner vertex nearest the target
-    for (uint32_t w = fixed; w < P.size(); ++w)
-      if (glm::length(P[w] - target) < glm::length(P[v] - target)) v = w;
-    bool done = false;
-    for (size_t t = 0; t < tets.size() && !done; ++t) {
-      const auto& k = tets[t];
-      const auto at = std::find(k.begin(), k.end(), v);
-      if (at == k.end()) continue;
-      std::array<glm::dvec3, 3> f;
-      int n = 0;
-      for (uint32_t w : k)
-        if (w != v) f[size_t(n++)] = P[w];
-      const glm::dvec3 normal = glm::normalize(glm::cross(f[1] - f[0], f[2] - f[0]));
-      const glm::dvec3 old = P[v];
-      P[v] -= 0.95 * glm::dot(P[v] - f[0], normal) * normal;  // 5% of its height left
-      bool valid = true;
-      for (const auto& q : tets)
-        if (std::find(q.begin(), q.end(), v) != q.end()) valid = valid && (signed_volume(P, q) > 0) == positive;
-      if (valid && mesh::dihedral_range(P[k[0]], P[k[1]], P[k[2]], P[k[3]])[0] < 8 * M_PI / 180) {
-        done = true;
-        moved.push_back(v);
-      } else {
-        P[v] = old;
-      }
-    }
+    const uint32_t v = flatten_near(P, tets, fixed, target);
+    if (v != UINT32_MAX) moved.push_back(v);
   }
   REQUIRE(moved.size() == 3);
   const size_t before = mesh::count_below_dihedral(P, tets, options.min_dihedral);
@@ -197,6 +237,61 @@ TEST_CASE("remesh_slivers: three slivers in a quality mesh are mended locally; t
   CHECK(wrong == 0);
 }
 
+TEST_CASE("remesh_slivers: slivers beside a kept interface between two regions: the interface and the regions stay") {
+  // The 10^3 cube in two regions split by the kept plane x = 5; slivers pushed flat right beside the plane on both
+  // sides. A cavity must neither cross the plane nor take a tet of the other region.
+  std::vector<glm::dvec3> surface_points;
+  std::vector<std::array<uint32_t, 3>> surface;
+  grid_surfaces(10, {5}, surface_points, surface);
+  mesh::QualityOptions options;
+  options.max_volume = 0.3;
+  const mesh::Tets T = mesh::constrained_quality(surface_points, surface, {},
+                                                 {{glm::dvec3(2.5, 5, 5), 1}, {glm::dvec3(7.5, 5, 5), 2}}, options);
+  options.max_volume = 0;
+  std::vector<glm::dvec3> P = T.points;
+  std::vector<std::array<uint32_t, 4>> tets = T.tets;
+  std::vector<int> region = T.region;
+  const size_t fixed = surface_points.size();
+  mesh::improve_tets(P, tets, fixed);
+  REQUIRE(mesh::count_below_dihedral(P, tets, 12.0) == 0);
+  size_t flattened = 0;
+  for (const glm::dvec3 target : {glm::dvec3(4.6, 2.5, 2.5), glm::dvec3(5.4, 2.5, 7.5), glm::dvec3(4.6, 7.5, 5.0),
+                                  glm::dvec3(5.4, 7.5, 2.0)})
+    flattened += flatten_near(P, tets, fixed, target) != UINT32_MAX;
+  REQUIRE(flattened == 4);
+  const size_t before = mesh::count_below_dihedral(P, tets, options.min_dihedral);
+  const auto r = mesh::remesh_slivers(P, tets, region, surface, fixed, options);
+  MESSAGE(before << " slivers, " << r.cavities << " cavities, " << r.remeshed << " remeshed; "
+                 << mesh::count_below_dihedral(P, tets, options.min_dihedral) << " left");
+  CHECK(r.remeshed >= 3);
+  CHECK(mesh::count_below_dihedral(P, tets, options.min_dihedral) < before);
+  REQUIRE(region.size() == tets.size());
+  std::map<int, double> volume;
+  std::map<std::array<uint32_t, 3>, std::multiset<int>> sides;
+  for (size_t t = 0; t < tets.size(); ++t) {
+    const auto& k = tets[t];
+    volume[region[t]] += mesh::tet_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
+    for (int c = 0; c < 4; ++c) {
+      std::array<uint32_t, 3> f = {k[size_t((c + 1) % 4)], k[size_t((c + 2) % 4)], k[size_t((c + 3) % 4)]};
+      std::sort(f.begin(), f.end());
+      sides[f].insert(region[t]);
+    }
+  }
+  CHECK(volume.size() == 2);
+  CHECK(volume[1] == doctest::Approx(500.0).epsilon(1e-12));
+  CHECK(volume[2] == doctest::Approx(500.0).epsilon(1e-12));
+  // Every triangle of the plane between a tet of each region; every other face of one region only.
+  size_t plane = 0, wrong = 0;
+  for (const auto& [f, who] : sides) {
+    const bool on_plane = P[f[0]].x == 5 && P[f[1]].x == 5 && P[f[2]].x == 5;
+    plane += on_plane;
+    wrong += on_plane ? who != std::multiset<int>{1, 2} : (who.size() == 2 && *who.begin() != *who.rbegin());
+  }
+  CHECK(plane == 200);
+  CHECK(wrong == 0);
+  CHECK(std::equal(surface_points.begin(), surface_points.end(), P.begin()));
+}
+
 TEST_CASE("remesh_slivers: a sliver walled in by kept faces is left as it is") {
   // Its four faces kept: the cavity is the sliver alone, and no mesh of it without points on its faces is better.
   std::vector<glm::dvec3> P = {{0, 0, 0}, {2, 0, 0}, {1, 1.7, 0.1}, {1, 0.6, 0.12}};
@@ -210,4 +305,58 @@ TEST_CASE("remesh_slivers: a sliver walled in by kept faces is left as it is") {
   CHECK(P.size() == 4);
   CHECK(tets == std::vector<std::array<uint32_t, 4>>{{0, 1, 2, 3}});
   CHECK(region == std::vector<int>{3});
+}
+
+TEST_CASE("drop_pockets: a region the boundary closes off from outside goes, the material stays") {
+  // A 10^3 box with a 2^3 cube inside that is not the material (another material's cavity with no hole seed): the
+  // boundary runs out of the material, so the inner cube's triangles face into it. TetGen without seeds meshes both
+  // regions; the inner one must go.
+  std::vector<glm::dvec3> P;
+  std::vector<std::array<uint32_t, 3>> boundary;
+  const std::vector<std::array<uint32_t, 3>> box = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                                                    {1, 2, 6}, {1, 6, 5}, {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
+  for (const auto& [lo, hi, outward] : {std::tuple{0.0, 10.0, true}, std::tuple{4.0, 6.0, false}}) {
+    const auto base = uint32_t(P.size());
+    for (int k = 0; k < 8; ++k)
+      P.push_back({(k == 1 || k == 2 || k == 5 || k == 6) ? hi : lo, (k == 2 || k == 3 || k == 6 || k == 7) ? hi : lo,
+                   k >= 4 ? hi : lo});
+    for (auto t : box) boundary.push_back(outward ? std::array<uint32_t, 3>{base + t[0], base + t[1], base + t[2]}
+                                                  : std::array<uint32_t, 3>{base + t[0], base + t[2], base + t[1]});
+  }
+  mesh::QualityOptions options;
+  options.keep_surface = false;  // let TetGen refine the big faces too
+  mesh::Tets V = mesh::constrained_quality(P, boundary, {}, {}, options);
+  REQUIRE(volume_of(V.points, V.tets) == doctest::Approx(1000.0).epsilon(1e-12));
+  std::set<int> regions(V.region.begin(), V.region.end());
+  REQUIRE(regions.size() == 2);
+  // The boundary as TetGen split it (points on the faces): the faces between different regions or on the hull,
+  // oriented out of the material.
+  std::map<std::array<uint32_t, 3>, std::vector<std::pair<size_t, int>>> at;
+  for (size_t t = 0; t < V.tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) {
+      const auto& k = V.tets[t];
+      std::array<uint32_t, 3> f = {k[size_t((c + 1) % 4)], k[size_t((c + 2) % 4)], k[size_t((c + 3) % 4)]};
+      std::sort(f.begin(), f.end());
+      at[f].push_back({t, c});
+    }
+  std::vector<std::array<uint32_t, 3>> faces;
+  for (const auto& [f, uses] : at) {
+    if (uses.size() == 2 && V.region[uses[0].first] == V.region[uses[1].first]) continue;
+    const glm::dvec3 c = (V.points[f[0]] + V.points[f[1]] + V.points[f[2]]) / 3.0;
+    const bool inner = std::max({std::fabs(c.x - 5), std::fabs(c.y - 5), std::fabs(c.z - 5)}) < 1.5;
+    const glm::dvec3 want = inner ? glm::dvec3(5.0) - c : c - glm::dvec3(5.0);  // out of the material
+    std::array<uint32_t, 3> g = f;
+    if (glm::dot(glm::cross(V.points[g[1]] - V.points[g[0]], V.points[g[2]] - V.points[g[0]]), want) < 0)
+      std::swap(g[1], g[2]);
+    faces.push_back(g);
+  }
+  const size_t points_before = V.points.size();
+  mesh::drop_pockets(V, faces, P.size());
+  CHECK(volume_of(V.points, V.tets) == doctest::Approx(1000.0 - 8.0).epsilon(1e-12));
+  CHECK(std::set<int>(V.region.begin(), V.region.end()).size() == 1);
+  CHECK(V.points.size() <= points_before);
+  std::vector<uint8_t> used(V.points.size(), 0);
+  for (const auto& t : V.tets)
+    for (uint32_t v : t) used[v] = 1;
+  CHECK(std::all_of(used.begin() + std::ptrdiff_t(P.size()), used.end(), [](uint8_t x) { return x == 1; }));
 }

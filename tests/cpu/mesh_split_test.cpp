@@ -121,6 +121,35 @@ TEST_CASE("split_material: refuses an open boundary and a single piece") {
   CHECK(split.points.empty());
 }
 
+TEST_CASE("split_material: refuses a cut across a thin layer") {
+  // A shell 0.7 thick (about an edge length): no lattice point fits, so every separator triangle joins boundary
+  // vertices, and both pieces would have to keep triangles spanning the layer.
+  const Sphere outer = icosphere(10.0, 4, false), inner = icosphere(9.3, 4, true);
+  std::vector<glm::dvec3> points = outer.points;
+  std::vector<std::array<uint32_t, 3>> boundary = outer.triangles;
+  const auto base = uint32_t(points.size());
+  points.insert(points.end(), inner.points.begin(), inner.points.end());
+  for (auto t : inner.triangles) {
+    for (auto& v : t) v += base;
+    boundary.push_back(t);
+  }
+  const auto split = mesh::split_material(points, boundary, 2, uint32_t(points.size()));
+  CHECK(split.refused.find("thin layers") != std::string::npos);
+  CHECK(split.pieces.empty());
+  // The same shell 6 thick is cut.
+  const Sphere thick = icosphere(4.0, 3, true);
+  points = outer.points;
+  boundary = outer.triangles;
+  points.insert(points.end(), thick.points.begin(), thick.points.end());
+  for (auto t : thick.triangles) {
+    for (auto& v : t) v += base;
+    boundary.push_back(t);
+  }
+  const auto cut = mesh::split_material(points, boundary, 2, uint32_t(points.size()));
+  CHECK(cut.refused.empty());
+  CHECK(cut.separator_on_boundary * 10 < cut.separator_triangles);
+}
+
 TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same volumes, conforming, slivers fixed") {
   // Material 1 between spheres of radius 10 and 4, material 2 inside; the inner sphere is a cavity that the pieces
   // of material 1 must carve out with material 2's seed. Jittered spheres leave boundary triangles that are no
