@@ -243,6 +243,22 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   P.insert(P.end(), extra.begin(), extra.end());
   tbb::parallel_for(size_t(0), cavities.size(), [&](size_t c) {
     if (!has_mesh[c] || made[c].empty()) return;
+    // The new tets' own boundary must be the cavity's, face for face (-Y puts no point on it); then every new point
+    // is inside one cavity, and the cavities' moves below touch disjoint points.
+    std::unordered_map<FaceKey, int, FaceKeyHash> uses;
+    for (const auto& q : made[c])
+      for (int i = 0; i < 4; ++i) ++uses[FaceKey(face_opposite(q, i))];
+    size_t hull = 0;
+    for (const auto& [f, n] : uses) hull += n == 1;
+    bool same = hull == cavities[c].boundary.size();
+    for (const auto& f : cavities[c].boundary) {
+      const auto it = uses.find(FaceKey(f));
+      same = same && it != uses.end() && it->second == 1;
+    }
+    if (!same) {
+      has_mesh[c] = 0;
+      return;
+    }
     std::unordered_map<uint32_t, uint32_t> local;
     std::vector<uint32_t> global;
     std::vector<glm::dvec3> local_points;
@@ -267,25 +283,16 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   for (uint32_t c = 0; c < cavities.size(); ++c) {
     if (!has_mesh[c] || made[c].empty()) continue;
     double volume = 0, worst = M_PI;
-    size_t below = 0;
+    size_t slivers = 0;
     for (const auto& q : made[c]) {
       volume += tet_volume(all[q[0]], all[q[1]], all[q[2]], all[q[3]]);
       const double angle = min_dihedral(all, q);
       worst = std::min(worst, angle);
-      below += angle < target;
+      slivers += angle < target;
     }
     if (std::fabs(volume - cavities[c].volume) > 1e-9 * cavities[c].volume || worst <= cavities[c].worst + 1e-3 ||
-        below > cavities[c].below)
+        slivers > cavities[c].below)
       continue;
-    // The new tets' own boundary is the cavity's, face for face (-Y puts no point on it).
-    std::unordered_map<FaceKey, int, FaceKeyHash> uses;
-    for (const auto& q : made[c])
-      for (int i = 0; i < 4; ++i) ++uses[FaceKey(face_opposite(q, i))];
-    size_t hull = 0;
-    for (const auto& [f, n] : uses) hull += n == 1;
-    bool same = hull == cavities[c].boundary.size();
-    for (const auto& f : cavities[c].boundary) same = same && uses.count(FaceKey(f)) && uses[FaceKey(f)] == 1;
-    if (!same) continue;
     // The same handedness as the tets they replace.
     const auto& k0 = tets[cavities[c].tets.front()];
     const bool positive = glm::dot(P[k0[1]] - P[k0[0]], glm::cross(P[k0[2]] - P[k0[0]], P[k0[3]] - P[k0[0]])) > 0;

@@ -11,10 +11,11 @@
 // Overlapping cavities are merged; a merged cavity that would drop a vertex below `fixed` or hold a kept face
 // between two of its tets is left alone. All cavities go to one TetGen run in a child process (child_process.h), one
 // region seed each (the centroid of its best-shaped tet); where TetGen gives up, the cavities are halved and tried
-// again, down to single ones. A cavity's new tets replace its old ones only when they fill the same volume (1e-9),
-// have exactly its boundary faces as their own, raise its smallest dihedral angle and leave no more tets below the
-// bound. The inner vertices of a remeshed cavity are gone: points >= `fixed` that no tet uses any more are removed
-// and the later ones renumbered (points below `fixed` never move or go).
+// again, down to single ones. A cavity's new tets must have exactly its boundary faces as their own; their new points
+// are then moved as improve_tets moves (the old tets had that pass too), and they replace the old tets only when they
+// fill the same volume (1e-9), raise the cavity's smallest dihedral angle and leave no more tets below the bound.
+// The inner vertices of a remeshed cavity are gone: where any cavity was remeshed, points >= `fixed` that no tet uses
+// are removed and the later ones renumbered (points below `fixed` never move or go).
 // Deterministic.
 #include <array>
 #include <cstdint>

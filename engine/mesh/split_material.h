@@ -18,10 +18,9 @@
 // It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
 // pieces: a boundary that is not closed, planes that coincide or cross no boundary triangle, a separator face that
 // crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed; and where
-// it would make a poor mesh: a separator of which more than 30% of the triangles join boundary vertices only (the
-// planes cross thin layers, where both pieces must keep triangles spanning the layer and the slivers along them
-// outlast every sliver pass). It
-// throws where TetGen cannot tetrahedralize the points at all (fewer than 4).
+// it would make a poor mesh: a plane's separator of which more than 30% of the triangles join boundary vertices only
+// (the plane crosses thin layers, where both pieces must keep triangles spanning the layer and the slivers along them
+// outlast every sliver pass). It throws where TetGen cannot tetrahedralize the points at all (fewer than 4).
 //
 // Inputs:  points     every point, in the caller's numbering (the boundary's vertices among them)
 //          boundary   the material's interface triangles, oriented with their normals out of the material

@@ -57,6 +57,7 @@ void sliver_passes(Tets& V, size_t fixed, const std::vector<std::array<uint32_t,
 }  // namespace
 
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
+  if (V.region.size() != V.tets.size()) throw std::runtime_error("drop_pockets: TetGen gave no region attributes");
   std::unordered_map<FaceKey, uint32_t, FaceKeyHash> triangle_of;
   triangle_of.reserve(boundary.size() * 2);
   for (uint32_t i = 0; i < boundary.size(); ++i) triangle_of.emplace(FaceKey(boundary[i]), i);

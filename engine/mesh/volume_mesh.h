@@ -30,8 +30,8 @@
 //                     (component_representatives in extract.h)
 //          labels     the materials' labels, for error messages
 // Outputs: tets.points  `points` first, unchanged, then the separators' points, then the points the runs added, run by
-//                       run in material order, less those no tet uses after the sliver passes (remesh_slivers.h
-//                       removes the inner points of the cavities it meshes afresh)
+//                       run in material order (the sliver remesh, remesh_slivers.h, removes the points it leaves
+//                       unused; others no tet uses may stay, such as a separator's when its material went whole)
 //          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
 #include <array>
 #include <cstdint>
