@@ -39,7 +39,7 @@ struct Cavity {
 
 SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
                                   std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                  size_t fixed, const QualityOptions& options, int rings) {
+                                  size_t fixed, const QualityOptions& options, int rings, size_t batch) {
   SliverRemeshReport report;
   const double target = options.min_dihedral * M_PI / 180;
   std::vector<uint8_t> below(tets.size());
@@ -227,14 +227,16 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     extra.insert(extra.end(), np.begin(), np.end());
     return true;
   };
-  // One run for all; where TetGen gives up, halves, down to single cavities.
+  // One run for all (or per `batch` cavities); where TetGen gives up, halves, down to single cavities.
   std::function<void(const std::vector<uint32_t>&)> attempt = [&](const std::vector<uint32_t>& which) {
     if (which.empty() || run(which) || which.size() == 1) return;
     const auto middle = which.begin() + std::ptrdiff_t(which.size() / 2);
     attempt({which.begin(), middle});
     attempt({middle, which.end()});
   };
-  attempt(todo);
+  const size_t per_run = batch > 0 ? batch : std::max<size_t>(todo.size(), 1);
+  for (size_t i = 0; i < todo.size(); i += per_run)
+    attempt({todo.begin() + std::ptrdiff_t(i), todo.begin() + std::ptrdiff_t(std::min(todo.size(), i + per_run))});
 
   // Each new mesh gets the vertex moves the old tets had (improve_tets: its new points move, the cavity's boundary
   // stays), then is kept where it fills the cavity, raises its worst angle and leaves no more slivers (the new points

@@ -8,14 +8,14 @@
 //
 // A cavity: the bad tet, the tets sharing a vertex with it and reachable across faces, then `rings` rings of face
 // neighbours; always within the bad tet's region and never across a face in `kept` (the interface triangles).
-// Overlapping cavities are merged; a merged cavity that would drop a vertex below `fixed` or hold a kept face
-// between two of its tets is left alone. All cavities go to one TetGen run in a child process (child_process.h), one
-// region seed each (the centroid of its best-shaped tet); where TetGen gives up, the cavities are halved and tried
-// again, down to single ones. A cavity's new tets must have exactly its boundary faces as their own; their new points
-// are then moved as improve_tets moves (the old tets had that pass too), and they replace the old tets only when they
-// fill the same volume (1e-9), raise the cavity's smallest dihedral angle and leave no more tets below the bound.
-// The inner vertices of a remeshed cavity are gone: where any cavity was remeshed, points >= `fixed` that no tet uses
-// are removed and the later ones renumbered (points below `fixed` never move or go).
+// Overlapping cavities are merged; a merged cavity that would drop a vertex below `fixed` or hold a kept face between
+// two of its tets is left alone. All cavities go to one TetGen run in a child process (child_process.h), one region
+// seed each (the centroid of its best-shaped tet; `batch` > 0: that many per run); where TetGen gives up, the cavities
+// are halved and tried again, down to single ones. A cavity's new tets must have exactly its boundary faces as their
+// own; their new points are then moved as improve_tets moves (the old tets had that pass too), and they replace the old
+// tets only when they fill the same volume (1e-9), raise the cavity's smallest dihedral angle and leave no more tets
+// below the bound. The inner vertices of a remeshed cavity are gone: where any cavity was remeshed, points >= `fixed`
+// that no tet uses are removed and the later ones renumbered (points below `fixed` never move or go).
 // Deterministic.
 #include <array>
 #include <cstdint>
@@ -40,6 +40,6 @@ size_t remove_unused_points(std::vector<glm::dvec3>& points, std::vector<std::ar
 
 SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
                                   std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                  size_t fixed, const QualityOptions& options, int rings = 3);
+                                  size_t fixed, const QualityOptions& options, int rings = 3, size_t batch = 0);
 
 }  // namespace cpmesh::mesh

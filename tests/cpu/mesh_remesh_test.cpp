@@ -235,6 +235,22 @@ TEST_CASE("remesh_slivers: three slivers in a quality mesh are mended locally; t
   for (auto f : kept) expect[f] = 1;
   for (const auto& [f, n] : face_counts(tets)) wrong += n != (expect.count(f) ? 1 : 2);
   CHECK(wrong == 0);
+
+  // One TetGen run per cavity (the new points of later runs numbered after the earlier runs'): as good, as exact.
+  std::vector<glm::dvec3> P1 = old_points;
+  std::vector<std::array<uint32_t, 4>> tets1 = old_tets;
+  std::vector<int> region1 = T.region;
+  const auto r1 = mesh::remesh_slivers(P1, tets1, region1, kept, fixed, options, 3, 1);
+  CHECK(r1.remeshed == 3);
+  CHECK(mesh::count_below_dihedral(P1, tets1, options.min_dihedral) == 0);
+  CHECK(volume_of(P1, tets1) == doctest::Approx(1000.0).epsilon(1e-12));
+  size_t wrong1 = 0;
+  for (const auto& [f, n] : face_counts(tets1)) wrong1 += n != (expect.count(f) ? 1 : 2);
+  CHECK(wrong1 == 0);
+  std::vector<uint8_t> used(P1.size(), 0);
+  for (const auto& t : tets1)
+    for (uint32_t v : t) used[v] = 1;
+  CHECK(std::all_of(used.begin() + std::ptrdiff_t(fixed), used.end(), [](uint8_t x) { return x == 1; }));
 }
 
 TEST_CASE("remesh_slivers: slivers beside a kept interface between two regions: the interface and the regions stay") {
