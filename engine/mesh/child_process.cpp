@@ -25,7 +25,14 @@ std::string run_in_child(const std::string& what, const std::function<std::strin
     throw std::runtime_error(what + ": cannot fork: " + std::strerror(errno));
   }
   if (pid == 0) {  // the child: run, send, leave without destructors or atexit handlers
-    close(fds[0]);
+    // Keep only the standard streams and this pipe's write end: a copy of a sibling's write end (another thread's
+    // child) would keep that pipe open after its child died, and its parent would wait for this child to end before
+    // it could tell.
+    const auto mine = unsigned(fds[1]);
+    const bool closed = (mine <= 3 || close_range(3, mine - 1, 0) == 0) && close_range(mine + 1, ~0u, 0) == 0;
+    if (!closed)  // a kernel without close_range
+      for (unsigned fd = 3; fd < 4096; ++fd)
+        if (fd != mine) close(int(fd));
     for (int sig : {SIGSEGV, SIGABRT, SIGBUS, SIGFPE, SIGILL}) std::signal(sig, SIG_DFL);  // no inherited crash reports
     std::string buf(sizeof(uint64_t), '\0');  // the length first (see the parent's read)
     try {

@@ -3,7 +3,8 @@
 // up (terminatetetgen) and again while tetrahedralize unwinds, so a failure in boundary recovery (facets that
 // intersect, say) is a double free that kills the process instead of an error it could report. The child sends its
 // result (or the message of the exception it threw) back through a pipe; a child that dies becomes an exception that
-// names the signal. Several children may run at once, one per calling thread: each call has its own pipe.
+// names the signal. Several children may run at once, one per calling thread: each call has its own pipe, and a child
+// closes every other descriptor it inherited (so a sibling's death is seen when it happens, not when this child ends).
 //
 // The child is a copy of the caller with only the calling thread, so a job must not use the thread pool (TBB) or
 // anything another thread may hold locked; plain computation and malloc are safe.
