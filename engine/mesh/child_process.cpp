@@ -54,9 +54,9 @@ std::string run_in_child(const std::string& what, const std::function<std::strin
     _exit(0);
   }
   close(fds[1]);
-  // Read the announced length, not to the end of the pipe: a child forked meanwhile by another thread holds a copy of
-  // this pipe's write end until it exits, so the end would come only with the last of the runs going in parallel
-  // (all of a volume mesh's TetGen runs then ended at once, and their sliver passes waited for the slowest run).
+  // Read the announced length, not to the end of the pipe: a child forked meanwhile by another thread held a copy of
+  // this pipe's write end until it exited (before children closed what they inherit, all of a volume mesh's TetGen
+  // runs ended at once, and their sliver passes waited for the slowest run); the length does not depend on that.
   std::string buf;
   uint64_t length = UINT64_MAX;
   char chunk[1 << 16];
