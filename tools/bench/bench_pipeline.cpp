@@ -24,6 +24,7 @@
 
 #include "bench_util.h"
 #include "mesh/pipeline.h"
+#include "mesh/report_json.h"
 
 using namespace cpmesh;
 using bench::peak_rss_mib;
@@ -199,12 +200,8 @@ int main(int argc, char** argv) {
               {"band", rep.band_voxels}, {"skin", skin},
               {"max_particles", max_particles}, {"seed", seed}}}};
         if (junctions) j["junction_error"] = bench::junction_json(je);
-        for (const auto& run : rep.volume_runs)  // where the volume mesh's time went: the runs go in parallel
-          j["volume_runs"].push_back({{"material", run.material < rep.materials.size()
-                                                       ? nlohmann::json(rep.materials[run.material].label)
-                                                       : nlohmann::json("all")},
-                                      {"piece", run.piece}, {"pieces", run.pieces},
-                                      {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets}});
+        if (!rep.volume_runs.empty())  // where the volume mesh's time went: the runs go in parallel
+          j["volume_runs"] = mesh::volume_runs_json(rep);
         if (!rep.volume_unsplit_because.empty()) j["volume_unsplit_because"] = rep.volume_unsplit_because;
         if (!only_surfaces)
           j["slivers"] = {{"min_dihedral_deg_from_tetgen", rep.tet_improvement.min_dihedral_before},

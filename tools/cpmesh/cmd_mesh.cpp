@@ -15,6 +15,7 @@
 #include "io/mesh_writers.h"
 #include "io/png.h"
 #include "mesh/pipeline.h"
+#include "mesh/report_json.h"
 #include "render/preview.h"
 #include "progress.h"
 #include "volume_input.h"
@@ -215,14 +216,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
             j["volume_mesh"]["sliver_cavities_remeshed"] = rep.sliver_split.remeshed;
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
-            j["volume_mesh"]["runs"] = nlohmann::json::array();
-            for (const auto& run : rep.volume_runs)
-              j["volume_mesh"]["runs"].push_back(
-                  {{"label", run.material < rep.materials.size() ? nlohmann::json(rep.materials[run.material].label)
-                                                                 : nlohmann::json("all")},
-                   {"piece", run.piece}, {"pieces", run.pieces},
-                   {"tetgen_s", run.tetgen}, {"slivers_s", run.slivers}, {"tets", run.tets},
-                   {"added_points", run.added_points}});
+            j["volume_mesh"]["runs"] = mesh::volume_runs_json(rep);
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
             j["volume_mesh"]["unsplit_because"] = rep.volume_unsplit_because;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
