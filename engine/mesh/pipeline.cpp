@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include "fields/volume_grid.h"
+#include "mesh/delaunay.h"
 #include "mesh/extract.h"
 #include "mesh/smooth.h"
 #include "mesh/volume_mesh.h"
@@ -176,7 +177,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   Tets T;
   Adjacency adj;
   timed([&] {
-    T = delaunay(points);
+    T = parallel_delaunay(points);
     adj = build_adjacency(T);
   });
   std::vector<uint16_t> material, hull;
@@ -219,7 +220,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     if (added == 0) break;
     timed([&] {
       if (!insert_points(T, adj, extra, near_tet)) {
-        T = delaunay(points);
+        T = parallel_delaunay(points);
         adj = build_adjacency(T);
       }
     });

@@ -11,12 +11,12 @@
 //   cpmesh::io::write_vtu("volume.vtu", result.volume);
 //
 // Stages (the names in MeshReport::seconds): "fields" (indicator fields, embedding, sizing) -> "seeding" ->
-// "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (TetGen Delaunay of
-// the particles, tet labels, repair, interface triangles) -> "smoothing" (smooth.h) -> "quality" -> "volume mesh"
-// (per material, or per piece of a large material: TetGen -pqAY bounded by its interface triangles, then the sliver
-// passes; volume_mesh.h).
+// "advection" (with add/delete rounds, then the junction protection) -> "delaunay and extraction" (Delaunay of the
+// particles on every core, delaunay.h; tet labels, repair, interface triangles) -> "smoothing" (smooth.h) ->
+// "quality" -> "volume mesh" (per material, or per piece of a large material: TetGen -pqAY bounded by its interface
+// triangles, then the sliver passes; volume_mesh.h).
 // Three stages also report their steps (MeshReport::steps): "fields" = "indicator fields" + "embedding" + "sizing
-// field" (and a little unmeasured work between them); "delaunay and extraction" = "tetrahedralization" (TetGen
+// field" (and a little unmeasured work between them); "delaunay and extraction" = "tetrahedralization" (the
 // Delaunay and the tets' adjacency, then the repair's point insertions or fresh tetrahedralizations) + "extraction"
 // (the rest: the point list, tet labels, repair, interface triangles); "volume mesh" = "cutting into pieces" +
 // "TetGen runs" + "merge and seams" (volume_mesh.h) + the output's numbering and statistics.

@@ -21,7 +21,8 @@ struct Tets {
 };
 
 // Delaunay tetrahedralization of a point set (TetGen "Qzn", with the tets' neighbours). Of points at exactly the
-// same place only the first is meshed; every output index refers to the input points.
+// same place only one is meshed (the first TetGen meets in its own random order); every output index refers to the
+// input points. parallel_delaunay (delaunay.h) does the same on every core.
 Tets delaunay(const std::vector<glm::dvec3>& points);
 
 // TetGen's exact predicates (Shewchuk's): orient3d's sign tells on which side of plane abc d lies (0: on it);

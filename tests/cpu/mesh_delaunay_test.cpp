@@ -1,10 +1,14 @@
 // mesh::insert_points (Bowyer-Watson) against TetGen: inserting points into a Delaunay tetrahedralization gives the
-// tetrahedralization of all the points (unique in general position), with a consistent adjacency.
+// tetrahedralization of all the points (unique in general position), with a consistent adjacency. Then
+// mesh::parallel_delaunay against TetGen and against the Delaunay property itself.
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <random>
 
+#include <tbb/global_control.h>
+
+#include "mesh/delaunay.h"
 #include "mesh/extract.h"
 #include "mesh/tetgen.h"
 
@@ -71,4 +75,127 @@ TEST_CASE("insert_points: a point outside the hull or on a vertex is refused, an
   CHECK(sorted_tets(T) == before);
   CHECK(mesh::insert_points(T, adj, {glm::dvec3(0.6, 0.3, 0.7)}, {0}));
   CHECK(T.tets.size() > before.size());
+}
+
+// ---- parallel_delaunay (mesh/delaunay.h) ----
+
+namespace {
+
+double signed_volume(const mesh::Tets& T, const std::array<uint32_t, 4>& t) {
+  const glm::dvec3 a = T.points[t[0]];
+  return glm::dot(T.points[t[1]] - a, glm::cross(T.points[t[2]] - a, T.points[t[3]] - a)) / 6.0;
+}
+
+// Checks the tetrahedralization as a whole, independently of how it was built: every tet oriented as TetGen's,
+// neighbours symmetric and sharing the face, every inner face locally Delaunay (exact), the hull faces (neighbour
+// -1) each once, and the volume.
+void check_delaunay(const mesh::Tets& T, double hull_volume) {
+  REQUIRE(T.neighbours.size() == T.tets.size() * 4);
+  size_t flat_or_flipped = 0, asymmetric = 0, not_delaunay = 0;
+  double volume = 0;
+  for (size_t t = 0; t < T.tets.size(); ++t) {
+    const auto& v = T.tets[t];
+    flat_or_flipped += !(mesh::orient3d_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]]) < 0);
+    volume += signed_volume(T, v);
+    for (int c = 0; c < 4; ++c) {
+      const int32_t n = T.neighbours[t * 4 + size_t(c)];
+      if (n < 0) continue;
+      const auto& u = T.tets[size_t(n)];
+      // The neighbour holds the three other corners and names t back across the face.
+      int shared = 0, apex = -1;
+      for (int k = 0; k < 4; ++k) {
+        const bool in_t = std::find(v.begin(), v.end(), u[size_t(k)]) != v.end();
+        shared += in_t;
+        if (!in_t) apex = k;
+      }
+      asymmetric += shared != 3 || T.neighbours[size_t(n) * 4 + size_t(apex)] != int32_t(t) ||
+                    std::find(u.begin(), u.end(), v[size_t(c)]) != u.end();
+      // TetGen's orientation is negative: insphere's sign flips.
+      not_delaunay += mesh::insphere_exact(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]],
+                                           T.points[u[size_t(apex)]]) < 0;
+    }
+  }
+  CHECK(flat_or_flipped == 0);
+  CHECK(asymmetric == 0);
+  CHECK(not_delaunay == 0);
+  CHECK(volume == doctest::Approx(hull_volume).epsilon(1e-9));
+}
+
+}  // namespace
+
+TEST_CASE("parallel_delaunay: random points (and exact duplicates) give TetGen's tets, whatever the thread count") {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<glm::dvec3> points;
+  for (int i = 0; i < 20000; ++i) points.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
+  const mesh::Tets tetgen = mesh::delaunay(points);
+  // Exact duplicates of earlier points, appended: the first of each is meshed (TetGen keeps whichever it met first
+  // in its own random order), so the tets are the same as without them.
+  for (int i = 0; i < 30; ++i) points.push_back(points[size_t(100 + 37 * i)]);
+  mesh::DelaunayStats stats;
+  const mesh::Tets ours = mesh::parallel_delaunay(points, &stats);
+  CHECK_FALSE(stats.fell_back);
+  CHECK(stats.duplicates == 30);
+  CHECK(stats.rounds > 100);  // 1,024 points one at a time, then rounds of many
+  CHECK(ours.points == points);
+  CHECK(sorted_tets(ours) == sorted_tets(tetgen));
+  double hull_volume = 0;
+  for (const auto& t : tetgen.tets) hull_volume += signed_volume(tetgen, t);
+  check_delaunay(ours, hull_volume);
+  size_t duplicate_corners = 0;
+  for (const auto& t : ours.tets)
+    for (uint32_t v : t) duplicate_corners += v >= points.size() - 30;
+  CHECK(duplicate_corners == 0);
+  // The adjacency from the neighbours equals the one found by sorting the faces.
+  mesh::Tets plain = ours;
+  plain.neighbours.clear();
+  CHECK(mesh::build_adjacency(ours).neighbour == mesh::build_adjacency(plain).neighbour);
+  // Reservations make the result depend on the order only: one thread gives the same arrays.
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  const mesh::Tets alone = mesh::parallel_delaunay(points);
+  CHECK(alone.tets == ours.tets);
+  CHECK(alone.neighbours == ours.neighbours);
+}
+
+TEST_CASE("parallel_delaunay: a lattice (cospherical and coplanar points, hull faces in planes) meshes without help") {
+  // Every unit cube's corners are cospherical and the hull's faces hold whole grids of points: the strict conflicts
+  // pick one of the Delaunay tetrahedralizations (TetGen's may differ) with no flat tet.
+  std::vector<glm::dvec3> points;
+  const int n = 12;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) points.push_back(glm::dvec3(x, y, z) * 0.5);
+  mesh::DelaunayStats stats;
+  const mesh::Tets T = mesh::parallel_delaunay(points, &stats);
+  CHECK_FALSE(stats.fell_back);
+  CHECK(stats.why.empty());
+  const double side = 0.5 * (n - 1);
+  check_delaunay(T, side * side * side);
+  // Every point is a corner of some tet; 5 or 6 tets per unit cube.
+  std::vector<uint8_t> used(points.size(), 0);
+  for (const auto& t : T.tets)
+    for (uint32_t v : t) used[v] = 1;
+  CHECK(std::count(used.begin(), used.end(), 0) == 0);
+  const size_t cubes = size_t(n - 1) * (n - 1) * (n - 1);
+  CHECK(T.tets.size() >= 5 * cubes);
+  CHECK(T.tets.size() <= 6 * cubes);
+}
+
+TEST_CASE("parallel_delaunay: few points, flat sets and bad coordinates") {
+  CHECK_THROWS_AS(mesh::parallel_delaunay({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), std::runtime_error);
+  CHECK_THROWS_AS(mesh::parallel_delaunay({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, std::nan("")}}), std::runtime_error);
+  // One tet, and four points with a duplicate.
+  const mesh::Tets one = mesh::parallel_delaunay({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
+  REQUIRE(one.tets.size() == 1);
+  CHECK(one.neighbours == std::vector<int32_t>{-1, -1, -1, -1});
+  check_delaunay(one, 1.0 / 6.0);
+  // Points on one plane: an error, not a crash (TetGen asserts on a flat bounding box, and delaunay() checks first).
+  std::vector<glm::dvec3> flat, tilted;
+  for (int i = 0; i < 20; ++i) {
+    flat.push_back(glm::dvec3(i % 5, i / 5, 0.0));
+    tilted.push_back(glm::dvec3(i % 5, i / 5, i % 5 + i / 5));  // the plane z = x + y
+  }
+  CHECK_THROWS_AS(mesh::delaunay(flat), std::runtime_error);
+  CHECK_THROWS_AS(mesh::parallel_delaunay(flat), std::runtime_error);
+  CHECK_THROWS_AS(mesh::parallel_delaunay(tilted), std::runtime_error);
 }

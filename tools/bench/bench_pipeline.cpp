@@ -3,11 +3,13 @@
 // a JSON line per volume. Volumes are synthetic (shape:size) or files.
 //   cpmesh-bench-pipeline [--device D] [--volumes wedge-ball:64,wedge-ball:128,wedge-ball:256,shells:128]
 //                         [--only-surfaces] [--max-size H] [--min-size H] [--seed S] [--no-peer] [--peer-match]
+//                         [--compare-delaunay]
 // Where cpmesh-peer-cgal was built (CGAL installed), each volume also gets a CGAL Mesh_3 row from the same binary
 // directory, run in a child process at --peer-facet-size (voxels): time, triangles, tets, radius ratio, dihedral;
 // with --peer-match more CGAL rows, at facet sizes closing in on cpmesh's triangle count.
 // Junction error (wedge ball): distance of the triple-curve edges' midpoints to the analytic curves, mean and max in
-// voxels, for both. The scaling table is cpmesh-bench-particles --scaling.
+// voxels, for both. The scaling table is cpmesh-bench-particles --scaling. With --compare-delaunay the particles
+// of each run are tetrahedralized again by TetGen (one thread) and by mesh::parallel_delaunay, same run.
 
 #include <unistd.h>
 
@@ -22,7 +24,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <tbb/task_arena.h>
+
 #include "bench_util.h"
+#include "mesh/delaunay.h"
 #include "mesh/pipeline.h"
 #include "mesh/report_json.h"
 
@@ -92,6 +97,11 @@ int main(int argc, char** argv) {
   app.add_flag("--peer-match", peer_match,
                "Run the CGAL peer again at the facet size that gives about cpmesh's triangle count (rows marked "
                "'='; up to three runs, until within 15%)");
+  bool compare_delaunay = false;
+  app.add_flag("--compare-delaunay", compare_delaunay,
+               "After each run, tetrahedralize its particles again with TetGen (one thread) and with the "
+               "pipeline's parallel Delaunay (every thread), same points, same run: a line and \"delaunay_compare\" "
+               "in the JSON");
   std::vector<double> sweep;
   app.add_option("--sweep-max-size", sweep,
                  "Scaling: run each volume at each of these largest h (physical units, e.g. 4,2,1,0.5) instead of "
@@ -209,6 +219,27 @@ int main(int argc, char** argv) {
                           {"splits", rep.sliver_split.inserted}, {"cavities_remeshed", rep.sliver_split.remeshed},
                           {"left", rep.sliver_split.failed},
                           {"separator_points", rep.volume_separator_points}};
+        if (compare_delaunay) {
+          std::vector<glm::dvec3> P;
+          for (const auto& v : r.particles.vertices) P.push_back({v[0], v[1], v[2]});
+          const auto t0 = std::chrono::steady_clock::now();
+          const size_t tetgen_tets = mesh::delaunay(P).tets.size();
+          const auto t1 = std::chrono::steady_clock::now();
+          mesh::DelaunayStats st;
+          const size_t parallel_tets = mesh::parallel_delaunay(P, &st).tets.size();
+          const auto t2 = std::chrono::steady_clock::now();
+          const double tetgen_s = std::chrono::duration<double>(t1 - t0).count();
+          const double parallel_s = std::chrono::duration<double>(t2 - t1).count();
+          const int threads = tbb::this_task_arena::max_concurrency();
+          std::printf("  Delaunay of its %zu particles: TetGen (one thread) %.2f s, %zu tets; parallel (%d threads) "
+                      "%.2f s, %zu tets%s\n", P.size(), tetgen_s, tetgen_tets, threads, parallel_s, parallel_tets,
+                      st.fell_back ? (", fell back: " + st.why).c_str() : "");
+          j["delaunay_compare"] = {{"points", P.size()},         {"threads", threads},
+                                   {"tetgen_s", tetgen_s},       {"tetgen_tets", tetgen_tets},
+                                   {"parallel_s", parallel_s},   {"parallel_tets", parallel_tets},
+                                   {"rounds", st.rounds},        {"retries", st.retries},
+                                   {"fell_back", st.fell_back}};
+        }
         std::cout << j.dump() << '\n';
         if (!sweep.empty()) {
           bench::ScalingRow row{h_max, double(rep.particles), {{"total", total}}};

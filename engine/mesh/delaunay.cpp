@@ -1,0 +1,597 @@
+#include "mesh/delaunay.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
+
+namespace cpmesh::mesh {
+
+namespace {
+
+constexpr uint32_t kInf = ~0u;   // the infinite vertex
+constexpr uint32_t kNone = ~0u;  // no reservation, no tet
+
+uint32_t load(const uint32_t& x) { return std::atomic_ref<const uint32_t>(x).load(std::memory_order_relaxed); }
+void store(uint32_t& x, uint32_t v) { std::atomic_ref<uint32_t>(x).store(v, std::memory_order_relaxed); }
+
+// A small set of tet indices (a cavity: tens of tets, thousands for a point beyond a large hull).
+class TetSet {
+ public:
+  void clear() {
+    for (size_t i : filled_) slots_[i] = kNone;
+    filled_.clear();
+    used_ = 0;
+  }
+  // False if already there.
+  bool insert(uint32_t t) {
+    if ((used_ + 1) * 2 > slots_.size()) grow();
+    size_t i = hash(t);
+    while (slots_[i] != kNone) {
+      if (slots_[i] == t) return false;
+      i = (i + 1) & (slots_.size() - 1);
+    }
+    slots_[i] = t;
+    filled_.push_back(i);
+    ++used_;
+    return true;
+  }
+  bool contains(uint32_t t) const {
+    if (slots_.empty()) return false;
+    for (size_t i = hash(t);; i = (i + 1) & (slots_.size() - 1)) {
+      if (slots_[i] == t) return true;
+      if (slots_[i] == kNone) return false;
+    }
+  }
+
+ private:
+  size_t hash(uint32_t t) const { return (size_t(t) * 0x9E3779B97F4A7C15ull >> 20) & (slots_.size() - 1); }
+  void grow() {
+    std::vector<uint32_t> old;
+    old.swap(slots_);
+    slots_.assign(std::max<size_t>(64, old.size() * 2), kNone);
+    filled_.clear();
+    used_ = 0;
+    for (uint32_t t : old)
+      if (t != kNone) insert(t);
+  }
+  std::vector<uint32_t> slots_;
+  std::vector<size_t> filled_;  // where slots_ holds a tet (clear() resets only those)
+  size_t used_ = 0;
+};
+
+struct Work {  // one point's insertion in a round
+  uint32_t point = 0;
+  uint32_t place = kNone;  // in its level's Morton order (kNone: put off from an earlier level)
+  uint32_t hint = kNone;   // a tet to walk from (kNone: its grid cell's)
+  std::vector<uint32_t> cavity;                       // tets whose open circumball holds the point
+  std::vector<std::pair<uint32_t, uint32_t>> border;  // the cavity's boundary faces: (cavity tet, corner)
+  std::vector<uint32_t> touched;                      // the cavity and the tets across its boundary
+};
+
+struct Scratch {  // per thread
+  TetSet set;
+  std::vector<uint64_t> edge_key;   // an open-addressing table of the new faces' edges on the cavity's boundary
+  std::vector<uint32_t> edge_face;  // the first face (made index * 4 + corner) seen with it, or kNone once paired
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  std::vector<std::array<uint32_t, 4>> made;
+  std::vector<uint32_t> slot, outside;
+};
+
+class Builder {
+ public:
+  Builder(const std::vector<glm::dvec3>& points, const glm::dvec3& extent) : P_(points), extent(extent) {}
+
+  const std::vector<glm::dvec3>& P_;
+  const glm::dvec3 extent;  // per axis, the largest absolute coordinate (positive)
+  struct Tet {                   // one record per tet: a cavity's tests touch one place in memory
+    std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
+    std::array<uint32_t, 4> n;    // (tet * 4 + corner) across the face opposite each corner
+    uint32_t reserve = kNone;     // the lowest batch place that reserved it this round
+    uint32_t next = kNone;        // kNone while alive; once dead, a tet made when it died (hints go on from there)
+  };
+  std::vector<Tet> T;
+  uint32_t count = 0;  // tets made (alive or dead)
+  uint32_t& across(uint32_t tc) { return T[tc / 4].n[tc % 4]; }
+  bool alive(uint32_t t) const { return T[t].next == kNone; }
+  std::atomic<bool> failed{false};
+  std::string why;  // set once, by whoever set failed first (under the flag)
+
+  static int inf_corner(const std::array<uint32_t, 4>& v) {
+    for (int c = 0; c < 4; ++c)
+      if (v[size_t(c)] == kInf) return c;
+    return -1;
+  }
+  // orient3d of tet v with corner c at q (v's other corners finite).
+  double orient_with(const std::array<uint32_t, 4>& v, int c, const glm::dvec3& q) const {
+    const glm::dvec3* p[4];
+    for (int k = 0; k < 4; ++k) p[k] = k == c ? &q : &P_[v[size_t(k)]];
+    return orient3d_exact(*p[0], *p[1], *p[2], *p[3]);
+  }
+  double orient(const std::array<uint32_t, 4>& v) const {
+    return orient3d_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]]);
+  }
+  // Finite tets are positively oriented; an infinite tet is positive with its infinite corner at any point strictly
+  // beyond its finite face.
+  bool conflict(uint32_t t, const glm::dvec3& q) const {
+    const auto& v = T[t].v;
+    const int k = inf_corner(v);
+    if (k < 0) return insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], q) > 0;
+    const double o = orient_with(v, k, q);
+    if (o != 0) return o > 0;
+    // In the hull face's plane: inside its circumcircle exactly when inside the finite neighbour's circumsphere.
+    const auto& w = T[T[t].n[size_t(k)] / 4].v;
+    return insphere_exact(P_[w[0]], P_[w[1]], P_[w[2]], P_[w[3]], q) > 0;
+  }
+  // Three points are collinear exactly when every point is coplanar with them. Probes off a along each axis,
+  // towards the origin by half the extent (floating-point values, so exactly the points tested, and inside the
+  // extent the exact predicates were set up for) cannot all lie in one plane through a.
+  bool collinear(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) const {
+    for (int axis = 0; axis < 3; ++axis) {
+      glm::dvec3 probe = a;
+      probe[axis] += a[axis] > 0 ? -0.5 * extent[axis] : 0.5 * extent[axis];
+      if (orient3d_exact(a, b, c, probe) != 0) return false;
+    }
+    return true;
+  }
+  void fail(const std::string& reason) {
+    bool expected = false;
+    if (failed.compare_exchange_strong(expected, true)) why = reason;
+  }
+
+  // A live tet at or after hint: dead tets point at a tet made when they died.
+  uint32_t live(uint32_t t) {
+    uint32_t u = t;
+    for (uint32_t n; (n = load(T[u].next)) != kNone;) u = n;
+    return u;
+  }
+
+  // The tet holding q (a visibility walk), or the infinite tet across the hull face q lies beyond. kNone: the walk
+  // did not end (never on a Delaunay tetrahedralization).
+  uint32_t locate(const glm::dvec3& q, uint32_t hint) {
+    uint32_t t = live(hint);
+    if (const int k = inf_corner(T[t].v); k >= 0) t = T[t].n[size_t(k)] / 4;
+    const size_t limit = 4 * size_t(count) + 64;
+    for (size_t step = 0; step < limit; ++step) {
+      const auto& v = T[t].v;
+      bool moved = false;
+      for (int i = 0; i < 4 && !moved; ++i) {
+        const int c = int((step + size_t(i)) % 4);  // rotating start: no cycling on ties
+        if (orient_with(v, c, q) >= 0) continue;
+        const uint32_t n = T[t].n[size_t(c)] / 4;
+        if (inf_corner(T[n].v) >= 0) return n;
+        t = n;
+        moved = true;
+      }
+      if (!moved) return t;
+    }
+    return kNone;
+  }
+
+  void find_cavity(Work& w, uint32_t start, TetSet& set) {
+    const glm::dvec3& q = P_[w.point];
+    w.cavity.assign(1, start);
+    w.border.clear();
+    set.clear();
+    set.insert(start);
+    for (size_t i = 0; i < w.cavity.size(); ++i) {
+      const uint32_t u = w.cavity[i];
+      for (uint32_t c = 0; c < 4; ++c) {
+        const uint32_t n = T[u].n[c] / 4;
+        if (set.contains(n)) continue;
+        if (conflict(n, q)) {
+          set.insert(n);
+          w.cavity.push_back(n);
+        } else {
+          w.border.push_back({u, c});
+        }
+      }
+    }
+    w.touched = w.cavity;
+    for (const auto& [u, c] : w.border) w.touched.push_back(T[u].n[c] / 4);
+  }
+
+  // Replaces w's cavity by the tets joining its point to the cavity's boundary. Only w's reserved tets are read or
+  // written; the tets beyond the cavity's count go to slots base, base + 1, ...
+  void commit(const Work& w, uint32_t base, Scratch& s) {
+    const uint32_t qi = w.point;
+    s.made.clear();
+    for (const auto& [u, c] : w.border) {
+      auto v = T[u].v;
+      v[c] = qi;
+      // A new finite tet is never flat (strict conflicts; check() verifies it), a new hull face can be.
+      if (const int k = inf_corner(v); k >= 0) {
+        glm::dvec3 f[3];
+        for (int j = 0, m = 0; j < 4; ++j)
+          if (j != k) f[m++] = P_[v[size_t(j)]];
+        if (collinear(f[0], f[1], f[2])) {
+          fail("a point on the line of a hull edge");
+          return;
+        }
+      }
+      s.made.push_back(v);
+    }
+    // The faces through q pair up by their edge on the cavity's boundary (a closed surface: every edge twice).
+    constexpr uint64_t kEmpty = ~0ull;
+    const size_t edges = 3 * s.made.size();
+    size_t size = 64;
+    while (size < 2 * edges) size *= 2;
+    s.edge_key.assign(size, kEmpty);
+    s.edge_face.resize(size);
+    s.pairs.clear();
+    bool closed = true;
+    for (size_t k = 0; k < s.made.size() && closed; ++k) {
+      const uint32_t c = w.border[k].second;
+      for (uint32_t j = 0; j < 4; ++j) {
+        if (j == c) continue;
+        uint32_t e[2], m = 0;
+        for (uint32_t x = 0; x < 4; ++x)
+          if (x != j && x != c) e[m++] = s.made[k][x];
+        const uint64_t key = uint64_t(std::min(e[0], e[1])) << 32 | std::max(e[0], e[1]);
+        size_t h = size_t((key * 0x9E3779B97F4A7C15ull) >> 40) & (size - 1);
+        while (s.edge_key[h] != kEmpty && s.edge_key[h] != key) h = (h + 1) & (size - 1);
+        if (s.edge_key[h] == kEmpty) {
+          s.edge_key[h] = key;
+          s.edge_face[h] = uint32_t(k * 4 + j);
+        } else if (s.edge_face[h] == kNone) {
+          closed = false;  // a third face on one edge
+        } else {
+          s.pairs.push_back({s.edge_face[h], uint32_t(k * 4 + j)});
+          s.edge_face[h] = kNone;
+        }
+      }
+    }
+    if (!closed || 2 * s.pairs.size() != edges) {
+      fail("a cavity whose boundary is not a closed surface");
+      return;
+    }
+    const size_t nc = w.cavity.size(), nb = s.made.size();
+    s.slot.resize(nb);
+    s.outside.resize(nb);
+    for (size_t k = 0; k < nb; ++k) {
+      s.outside[k] = T[w.border[k].first].n[w.border[k].second];  // before any slot is overwritten
+      s.slot[k] = k < nc ? w.cavity[k] : base + uint32_t(k - nc);
+    }
+    for (size_t k = 0; k < nb; ++k) {
+      const uint32_t t = s.slot[k], c = w.border[k].second;
+      T[t].v = s.made[k];
+      T[t].n[c] = s.outside[k];
+      across(s.outside[k]) = t * 4 + c;
+    }
+    for (const auto& [fa, fb] : s.pairs) {
+      const uint32_t a = s.slot[fa / 4] * 4 + fa % 4, b = s.slot[fb / 4] * 4 + fb % 4;
+      across(a) = b;
+      across(b) = a;
+    }
+    for (size_t k = nb; k < nc; ++k) {  // a cavity can hold more tets than its boundary has faces
+      store(T[w.cavity[k]].next, s.slot[0]);
+    }
+  }
+
+  void grow(size_t tets) {
+    if (T.size() >= tets) return;
+    T.resize(std::max(tets, T.size() + T.size() / 2));
+  }
+
+  // The first tet and the four infinite ones around it.
+  void start(std::array<uint32_t, 4> v) {
+    if (orient(v) < 0) std::swap(v[0], v[1]);
+    grow(64);
+    T[0].v = v;
+    for (uint32_t c = 0; c < 4; ++c) {
+      auto w = v;
+      w[c] = kInf;
+      std::swap(w[(c + 1) % 4], w[(c + 2) % 4]);  // positive with kInf beyond the face
+      T[1 + c].v = w;
+    }
+    count = 5;
+    for (uint32_t a = 0; a < count; ++a)
+      for (uint32_t ca = 0; ca < 4; ++ca)
+        for (uint32_t b = 0; b < count; ++b)
+          for (uint32_t cb = 0; cb < 4; ++cb) {
+            if (a == b) continue;
+            std::array<uint32_t, 3> fa, fb;
+            for (uint32_t x = 0, i = 0, j = 0; x < 4; ++x) {
+              if (x != ca) fa[i++] = T[a].v[x];
+              if (x != cb) fb[j++] = T[b].v[x];
+            }
+            std::sort(fa.begin(), fa.end());
+            std::sort(fb.begin(), fb.end());
+            if (fa == fb) T[a].n[ca] = b * 4 + cb;
+          }
+  }
+
+  // Checks every face (see the header); empty when all hold.
+  std::string check(const std::vector<uint8_t>& meshed) const {
+    struct Bad {
+      std::string why;
+      void set(const char* w) {
+        if (why.empty()) why = w;
+      }
+    };
+    const std::string bad = tbb::parallel_reduce(
+        tbb::blocked_range<uint32_t>(0, count, 4096), std::string(),
+        [&](const tbb::blocked_range<uint32_t>& r, std::string found) {
+          for (uint32_t t = r.begin(); t < r.end() && found.empty(); ++t) {
+            if (!alive(t)) continue;
+            const auto& v = T[t].v;
+            const int k = inf_corner(v);
+            for (uint32_t c = 0; c < 4 && found.empty(); ++c) {
+              const uint32_t n = T[t].n[c];
+              if (n == kNone || T[n / 4].n[n % 4] != t * 4 + c || !alive(n / 4)) {
+                found = "an inconsistent adjacency";
+                break;
+              }
+              const auto& u = T[n / 4].v;
+              const uint32_t apex = u[n % 4];
+              if (k < 0) {
+                if (c == 0 && !(orient(v) > 0)) found = "a tet not positively oriented";
+                if (apex != kInf && n / 4 > t &&
+                    insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], P_[apex]) > 0)
+                  found = "a face that is not locally Delaunay";
+              } else if (c == uint32_t(k)) {
+                if (apex == kInf || !(orient_with(v, k, P_[apex]) < 0)) found = "a hull face that faces inwards";
+              } else if (apex == kInf || inf_corner(u) < 0 || orient_with(v, k, P_[apex]) > 0) {
+                found = "a hull that is not convex";
+              }
+            }
+          }
+          return found;
+        },
+        [](std::string a, const std::string& b) { return a.empty() ? b : a; });
+    if (!bad.empty()) return bad;
+    std::vector<uint8_t> seen(P_.size(), 0);
+    for (uint32_t t = 0; t < count; ++t)
+      if (alive(t))
+        for (uint32_t x : T[t].v)
+          if (x != kInf) seen[x] = 1;
+    for (size_t i = 0; i < P_.size(); ++i)
+      if (meshed[i] && !seen[i]) return "a point in no tet";
+    return {};
+  }
+};
+
+}  // namespace
+
+Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* stats) {
+  DelaunayStats local;
+  DelaunayStats& st = stats ? *stats : local;
+  st = {};
+  if (points.size() < 4)
+    throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
+  if (points.size() >= kInf / 8)
+    throw std::runtime_error("Delaunay tetrahedralization: too many points (" + std::to_string(points.size()) + ")");
+  auto fall_back = [&](const std::string& why) {
+    st.fell_back = true;
+    st.why = why;
+    return delaunay(points);
+  };
+  glm::dvec3 extent(0.0), lo(points[0]), hi(points[0]);
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw std::runtime_error("Delaunay tetrahedralization: a point with a coordinate that is not finite");
+    extent = glm::max(extent, glm::abs(p));
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  // As init_exact_predicates widens it (no axis under a thousandth of the largest).
+  extent = glm::max(extent, glm::dvec3(1e-3 * std::max({extent.x, extent.y, extent.z, 1e-300})));
+  init_exact_predicates(extent);
+
+  // Exact duplicates: only the first is meshed.
+  std::vector<uint32_t> by_place(points.size());
+  std::iota(by_place.begin(), by_place.end(), 0u);
+  tbb::parallel_sort(by_place.begin(), by_place.end(), [&](uint32_t a, uint32_t b) {
+    const auto &p = points[a], &q = points[b];
+    if (p.x != q.x) return p.x < q.x;
+    if (p.y != q.y) return p.y < q.y;
+    if (p.z != q.z) return p.z < q.z;
+    return a < b;
+  });
+  std::vector<uint8_t> meshed(points.size(), 1);
+  for (size_t i = 1; i < by_place.size(); ++i)
+    if (points[by_place[i]] == points[by_place[i - 1]]) {
+      meshed[by_place[i]] = 0;
+      ++st.duplicates;
+    }
+
+  // A seeded random order; the first four points that span space start the mesh.
+  std::vector<uint32_t> order;
+  order.reserve(points.size());
+  for (uint32_t i = 0; i < points.size(); ++i)
+    if (meshed[i]) order.push_back(i);
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(0x5eed));
+  Builder B(points, extent);
+  B.T.reserve(size_t(7.0 * double(points.size())) + 64);  // about 6.5 tets per point, a few dead
+  std::array<uint32_t, 4> first;
+  {
+    size_t found = 0;
+    auto take = [&](size_t i) {
+      first[found++] = order[i];
+      std::swap(order[i], order[found - 1]);
+    };
+    take(0);
+    for (size_t i = found; i < order.size() && found < 4; ++i) {
+      const glm::dvec3& p = points[order[i]];
+      if (found == 1 ? p != points[first[0]]
+          : found == 2 ? !B.collinear(points[first[0]], points[first[1]], p)
+                       : orient3d_exact(points[first[0]], points[first[1]], points[first[2]], p) != 0)
+        take(i);
+    }
+    if (found < 4)
+      throw std::runtime_error("Delaunay tetrahedralization: all " + std::to_string(order.size()) +
+                               " distinct points lie on one plane");
+  }
+  B.start(first);
+
+  // Walks start from the tet last made in the point's grid cell.
+  const size_t cells_per_axis = std::clamp<size_t>(size_t(std::cbrt(double(order.size()) / 4.0)), 1, 256);
+  const glm::dvec3 cell_size = glm::max(hi - lo, glm::dvec3(1e-300)) / double(cells_per_axis);
+  auto cell_of = [&](const glm::dvec3& p) {
+    size_t idx = 0;
+    for (int a = 2; a >= 0; --a)
+      idx = idx * cells_per_axis + std::min(cells_per_axis - 1, size_t(std::max(0.0, (p[a] - lo[a]) / cell_size[a])));
+    return idx;
+  };
+  std::vector<uint32_t> hint(cells_per_axis * cells_per_axis * cells_per_axis, 0);
+
+  // Levels of the random order (BRIO, Amenta et al. 2003): 1,024 points one at a time, then levels that double the
+  // points meshed. A level's points are sorted along a Morton curve and cut into lanes, consecutive stretches of the
+  // curve; a round takes the next point of every lane (with the ones put off before first). Each point walks from the
+  // tet its predecessor in the lane made a round before, a few steps away, on the same thread (a static partition),
+  // and the round's points are spread over the whole level, so their cavities rarely meet. Lanes: one per kShare
+  // points meshed (more, and cavities meet so often that the put-off points pile up), at most kMaxLanes.
+  constexpr size_t kShare = 256, kMaxLanes = 1024;
+  auto morton = [&](uint32_t i) {
+    uint64_t code = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double x = (points[i][a] - lo[a]) / std::max(hi[a] - lo[a], 1e-300);
+      const uint64_t v = uint64_t(std::clamp(x, 0.0, 1.0) * double((1u << 21) - 1));
+      for (int b = 0; b < 21; ++b) code |= ((v >> b) & 1) << (3 * b + a);
+    }
+    return code;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch;
+  std::vector<Work> batch;
+  std::vector<std::pair<uint32_t, uint32_t>> waiting;  // (point, place) that lost a reservation: first in later rounds
+  std::vector<uint32_t> made_at;  // per place in the level: a tet its point made (kNone: not yet)
+  std::vector<std::pair<uint64_t, uint32_t>> level;
+  std::vector<uint32_t> queue;
+  std::vector<uint8_t> won;
+  std::vector<uint32_t> base;  // the level's places in the order they are taken
+  size_t inserted = 4;
+  for (size_t begin = 4; begin < order.size();) {
+    const size_t end = std::min(order.size(), begin < 1024 ? 1024 : 2 * begin);
+    level.resize(end - begin);
+    tbb::parallel_for(begin, end, [&](size_t i) { level[i - begin] = {morton(order[i]), order[i]}; });
+    tbb::parallel_sort(level.begin(), level.end());
+    made_at.assign(level.size(), kNone);
+    for (auto& w : waiting) w.second = kNone;  // its place was in the level before
+    const size_t lanes = begin < 1024 ? 1 : std::clamp<size_t>(inserted / kShare, 1, kMaxLanes);
+    queue.clear();
+    for (size_t r = 0; r * lanes < level.size() + lanes; ++r)
+      for (size_t lane = 0; lane < lanes; ++lane) {
+        const size_t first_place = lane * level.size() / lanes, next_lane = (lane + 1) * level.size() / lanes;
+        if (first_place + r < next_lane) queue.push_back(uint32_t(first_place + r));
+      }
+    for (size_t taken = 0; taken < queue.size() || (end == order.size() && !waiting.empty());) {
+      const size_t cap = lanes;
+      const size_t from_waiting = std::min(cap, waiting.size());
+      const size_t fresh_points = std::min(cap - from_waiting, queue.size() - taken);
+      batch.resize(from_waiting + fresh_points);
+      for (size_t j = 0; j < batch.size(); ++j) {
+        Work& w = batch[j];
+        if (j < from_waiting) {
+          w.point = waiting[j].first;
+          w.place = waiting[j].second;
+          w.hint = w.place != kNone && w.place > 0 ? made_at[w.place - 1] : kNone;
+        } else {
+          const uint32_t k = queue[taken++];
+          w.point = level[k].second;
+          w.place = k;
+          w.hint = k > 0 ? made_at[k - 1] : kNone;
+        }
+      }
+      waiting.erase(waiting.begin(), waiting.begin() + ptrdiff_t(from_waiting));
+      ++st.rounds;
+
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, batch.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
+        Scratch& s = scratch.local();
+        for (size_t j = r.begin(); j < r.end(); ++j) {
+          Work& w = batch[j];
+          const glm::dvec3& q = points[w.point];
+          const uint32_t t = B.locate(q, w.hint != kNone ? w.hint : hint[cell_of(q)]);
+          if (t == kNone) {
+            B.fail("a walk that did not end");
+            continue;
+          }
+          B.find_cavity(w, t, s.set);
+          for (uint32_t u : w.touched) {
+            std::atomic_ref<uint32_t> res(B.T[u].reserve);
+            uint32_t cur = res.load(std::memory_order_relaxed);
+            while (uint32_t(j) < cur && !res.compare_exchange_weak(cur, uint32_t(j), std::memory_order_relaxed)) {
+            }
+          }
+        }
+      }, tbb::static_partitioner());
+      if (B.failed) return fall_back(B.why);
+      // The points holding all their reservations, and their new slots in batch order: with the hints set in that
+      // order too, every array depends on the input alone, not on the threads.
+      won.assign(batch.size(), 0);
+      tbb::parallel_for(size_t(0), batch.size(), [&](size_t j) {
+        bool mine = true;
+        for (uint32_t u : batch[j].touched) mine = mine && load(B.T[u].reserve) == uint32_t(j);
+        won[j] = mine;
+      });
+      base.resize(batch.size());
+      uint32_t made = B.count;
+      for (size_t j = 0; j < batch.size(); ++j) {
+        base[j] = made;
+        if (won[j] && batch[j].border.size() > batch[j].cavity.size())
+          made += uint32_t(batch[j].border.size() - batch[j].cavity.size());
+      }
+      B.grow(made);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, batch.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
+        Scratch& s = scratch.local();
+        for (size_t j = r.begin(); j < r.end(); ++j)
+          if (won[j]) B.commit(batch[j], base[j], s);
+      }, tbb::static_partitioner());
+      if (B.failed) return fall_back(B.why);
+      B.count = made;
+      for (size_t j = 0; j < batch.size(); ++j)
+        if (won[j]) {
+          const Work& w = batch[j];
+          hint[cell_of(points[w.point])] = w.cavity[0];
+          if (w.place != kNone) made_at[w.place] = w.cavity[0];
+        }
+      tbb::parallel_for(size_t(0), batch.size(), [&](size_t j) {
+        for (uint32_t u : batch[j].touched) store(B.T[u].reserve, kNone);
+      });
+      for (size_t j = 0; j < batch.size(); ++j) {
+        if (won[j]) {
+          ++inserted;
+        } else {
+          waiting.push_back({batch[j].point, batch[j].place});
+          ++st.retries;
+        }
+      }
+    }
+    begin = end;
+  }
+
+  if (const std::string bad = B.check(meshed); !bad.empty()) return fall_back(bad);
+
+  // The finite tets, renumbered (in slot order), with TetGen's orientation (corners 0 and 1 swapped, and their
+  // faces' neighbours); the hull's neighbours are -1.
+  std::vector<uint32_t> index(B.count);
+  tbb::parallel_for(uint32_t(0), B.count, [&](uint32_t t) {
+    index[t] = B.alive(t) && Builder::inf_corner(B.T[t].v) < 0 ? 0 : kNone;
+  });
+  uint32_t finite = 0;
+  for (uint32_t& i : index)
+    if (i != kNone) i = finite++;
+  Tets out;
+  out.points = points;
+  out.tets.resize(finite);
+  out.neighbours.resize(size_t(finite) * 4);
+  tbb::parallel_for(uint32_t(0), B.count, [&](uint32_t t) {
+    if (index[t] == kNone) return;
+    const auto& v = B.T[t].v;
+    out.tets[index[t]] = {v[1], v[0], v[2], v[3]};
+    for (uint32_t c = 0; c < 4; ++c) {
+      const uint32_t n = index[B.T[t].n[c] / 4];
+      out.neighbours[size_t(index[t]) * 4 + (c < 2 ? 1 - c : c)] = n == kNone ? -1 : int32_t(n);
+    }
+  });
+  return out;
+}
+
+}  // namespace cpmesh::mesh
