@@ -1,8 +1,11 @@
 #include "mesh/delaunay.h"
 
+#include "mesh/child_process.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -12,6 +15,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
+
+#include "mesh/child_process.h"
 
 namespace cpmesh::mesh {
 
@@ -88,10 +93,11 @@ struct Scratch {  // per thread
 
 class Builder {
  public:
-  Builder(const std::vector<glm::dvec3>& points, const glm::dvec3& extent) : P_(points), extent(extent) {}
+  Builder(const std::vector<glm::dvec3>& points, const glm::dvec3& lo, const glm::dvec3& size)
+      : P_(points), mid(lo + 0.5 * size), size(size) {}
 
   const std::vector<glm::dvec3>& P_;
-  const glm::dvec3 extent;  // per axis, the largest absolute coordinate (positive)
+  const glm::dvec3 mid, size;  // the points' bounding box (size widened as for init_exact_predicates)
   struct Tet {                   // one record per tet: a cavity's tests touch one place in memory
     std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
     std::array<uint32_t, 4> n;    // (tet * 4 + corner) across the face opposite each corner
@@ -132,12 +138,12 @@ class Builder {
     return insphere_exact(P_[w[0]], P_[w[1]], P_[w[2]], P_[w[3]], q) > 0;
   }
   // Three points are collinear exactly when every point is coplanar with them. Probes off a along each axis,
-  // towards the origin by half the extent (floating-point values, so exactly the points tested, and inside the
-  // extent the exact predicates were set up for) cannot all lie in one plane through a.
+  // towards the box's middle by half its size (floating-point values, so exactly the points tested, and within the
+  // differences the exact predicates were set up for) cannot all lie in one plane through a.
   bool collinear(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) const {
     for (int axis = 0; axis < 3; ++axis) {
       glm::dvec3 probe = a;
-      probe[axis] += a[axis] > 0 ? -0.5 * extent[axis] : 0.5 * extent[axis];
+      probe[axis] += a[axis] > mid[axis] ? -0.5 * size[axis] : 0.5 * size[axis];
       if (orient3d_exact(a, b, c, probe) != 0) return false;
     }
     return true;
@@ -278,7 +284,7 @@ class Builder {
 
   void grow(size_t tets) {
     if (T.size() >= tets) return;
-    T.resize(std::max(tets, T.size() + T.size() / 2));
+    T.resize(std::max(tets, std::min(T.capacity(), T.size() + T.size() / 2)));  // within the reserve if it can
   }
 
   // The first tet and the four infinite ones around it.
@@ -332,6 +338,9 @@ class Builder {
               }
               const auto& u = T[n / 4].v;
               const uint32_t apex = u[n % 4];
+              for (uint32_t x = 0; x < 4; ++x)
+                if (x != c && std::find(u.begin(), u.end(), v[x]) == u.end()) found = "neighbours that share no face";
+              if (!found.empty()) break;
               if (k < 0) {
                 if (c == 0 && !(orient(v) > 0)) found = "a tet not positively oriented";
                 if (apex != kInf && n / 4 > t &&
@@ -361,30 +370,58 @@ class Builder {
 
 }  // namespace
 
-Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* stats) {
+Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stats) {
   DelaunayStats local;
   DelaunayStats& st = stats ? *stats : local;
   st = {};
-  if (points.size() < 4)
-    throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
-  if (points.size() >= kInf / 8)
-    throw std::runtime_error("Delaunay tetrahedralization: too many points (" + std::to_string(points.size()) + ")");
-  auto fall_back = [&](const std::string& why) {
-    st.fell_back = true;
-    st.why = why;
-    return delaunay(points);
-  };
-  glm::dvec3 extent(0.0), lo(points[0]), hi(points[0]);
-  for (const auto& p : points) {
+  if (input.size() < 4)
+    throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(input.size()));
+  if (input.size() > (size_t(1) << 30) / 8)  // faces are named tet * 4 + corner in 32 bits, about 7 tets per point
+    throw std::runtime_error("Delaunay tetrahedralization: too many points (" + std::to_string(input.size()) + ")");
+  // The predicates see the points scaled by a power of two (exact: no sign changes) to a largest coordinate in
+  // [1, 2): far from 1, insphere's products overflow or underflow and every test says "not inside", a valid but not
+  // Delaunay tetrahedralization that check() (the same predicates) would pass.
+  double largest = 0;
+  for (const auto& p : input) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       throw std::runtime_error("Delaunay tetrahedralization: a point with a coordinate that is not finite");
-    extent = glm::max(extent, glm::abs(p));
+    largest = std::max({largest, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+  }
+  const double scale = largest > 0 ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+  std::vector<glm::dvec3> points(input.size());
+  tbb::parallel_for(size_t(0), input.size(), [&](size_t i) { points[i] = input[i] * scale; });
+  glm::dvec3 lo(points[0]), hi(points[0]);
+  for (const auto& p : points) {
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
-  // As init_exact_predicates widens it (no axis under a thousandth of the largest).
-  extent = glm::max(extent, glm::dvec3(1e-3 * std::max({extent.x, extent.y, extent.z, 1e-300})));
-  init_exact_predicates(extent);
+  // TetGen's exact predicates filter on the largest coordinate differences (the bounding box, as TetGen sets them
+  // itself), widened as init_exact_predicates widens them: no axis under a thousandth of the largest.
+  glm::dvec3 size = hi - lo;
+  const double spread = std::max({size.x, size.y, size.z});
+  if (spread < std::ldexp(1.0, -200)) {
+    char why[160];
+    std::snprintf(why, sizeof why, "spread %g at coordinates up to %g", spread / scale, largest);
+    throw std::runtime_error(std::string("Delaunay tetrahedralization: the points are too close together for the "
+                                         "exact predicates (") + why + ")");
+  }
+  size = glm::max(size, glm::dvec3(1e-3 * spread));
+  init_exact_predicates(size);
+  // TetGen, in a child process: it crashes on some degenerate sets (seen: integer points on a few parallel planes).
+  auto fall_back = [&](const std::string& why) {
+    st.fell_back = true;
+    st.why = why;
+    const std::string bytes = run_in_child("Delaunay tetrahedralization (TetGen)", [&] {
+      ByteWriter w;
+      put_tets(w, delaunay(points));
+      return w.take();
+    });
+    Tets out;
+    ByteReader r(bytes);
+    if (!get_tets(r, out) || !r.done()) throw std::runtime_error("TetGen: truncated result from the child process");
+    out.points = input;
+    return out;
+  };
 
   // Exact duplicates: only the first is meshed.
   std::vector<uint32_t> by_place(points.size());
@@ -409,7 +446,7 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* sta
   for (uint32_t i = 0; i < points.size(); ++i)
     if (meshed[i]) order.push_back(i);
   std::shuffle(order.begin(), order.end(), std::mt19937_64(0x5eed));
-  Builder B(points, extent);
+  Builder B(points, lo, size);
   B.T.reserve(size_t(7.0 * double(points.size())) + 64);  // about 6.5 tets per point, a few dead
   std::array<uint32_t, 4> first;
   {
@@ -579,7 +616,7 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* sta
   for (uint32_t& i : index)
     if (i != kNone) i = finite++;
   Tets out;
-  out.points = points;
+  out.points = input;
   out.tets.resize(finite);
   out.neighbours.resize(size_t(finite) * 4);
   tbb::parallel_for(uint32_t(0), B.count, [&](uint32_t t) {

@@ -15,12 +15,14 @@
 // infinite tet, and one in the face's plane when it lies strictly inside the face's circumcircle. With strict
 // conflicts every boundary face of a cavity is strictly visible from its point, so the new finite tets are never
 // flat, even for cospherical points (a lattice): the result is then one of the Delaunay tetrahedralizations.
-// Exact predicates (TetGen's, Shewchuk's) throughout.
+// Exact predicates (TetGen's, Shewchuk's) throughout, on the points scaled by a power of two to coordinates under 2
+// (exact; far from 1 their products overflow or underflow).
 //
-// Before returning, every face is checked: finite tets positively oriented, each inner face locally Delaunay (the
-// apex across it not strictly inside the tet's circumsphere), the hull locally convex. Should any check fail (or an
-// insertion meet a degenerate hull: a point on the line of a hull edge), the points are meshed by TetGen's
-// delaunay() instead and DelaunayStats::fell_back says why: slower, never wrong.
+// Before returning, every face is checked: finite tets positively oriented, neighbours sharing the face, each inner
+// face locally Delaunay (the apex across it not strictly inside the tet's circumsphere), the hull locally convex.
+// Should any check fail (or an insertion meet a degenerate hull: a point on the line of a hull edge, which exact
+// predicates should never let happen), the points are meshed by TetGen's delaunay() in a child process instead (it
+// crashes on some degenerate sets) and DelaunayStats::fell_back says why.
 #include <string>
 #include <vector>
 
@@ -40,7 +42,8 @@ struct DelaunayStats {
 // point is in no tet), neighbours filled (4 per tet, the one across the face opposite each corner, -1 on the hull),
 // every tet oriented as TetGen's are (orient3d_exact < 0). The tets are the same in general position (the
 // tetrahedralization is unique), listed in another order. Throws std::runtime_error with fewer than 4 points, a
-// coordinate that is not finite, or all points on one plane.
+// coordinate that is not finite, all points on one plane, or points too close together for the predicates (a spread
+// under 2^-200 of their largest coordinate).
 // Uses the TBB threads the caller allows (tbb::global_control). Calls init_exact_predicates: not to be run beside
 // other users of the exact predicates.
 Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* stats = nullptr);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -69,10 +70,13 @@ Adjacency build_adjacency(const Tets& T) {
 bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near_tet) {
   if (points.empty()) return true;
   if (T.tets.empty()) return false;
-  glm::dvec3 extent(0.0);
-  for (const auto& p : T.points) extent = glm::max(extent, glm::abs(p));
-  for (const auto& p : points) extent = glm::max(extent, glm::abs(p));
-  init_exact_predicates(extent);
+  glm::dvec3 lo = points[0], hi = points[0];
+  for (const std::vector<glm::dvec3>* set : {&std::as_const(T.points), &points})
+    for (const auto& p : *set) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+  init_exact_predicates(hi - lo);
   T.neighbours.clear();
   auto corner_point = [&](uint32_t t, int c) { return T.points[T.tets[t][size_t(c)]]; };
   auto face_point = [&](uint32_t t, int c, int k) { return T.points[T.tets[t][size_t(kFace[c][k])]]; };

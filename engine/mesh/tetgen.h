@@ -27,7 +27,8 @@ Tets delaunay(const std::vector<glm::dvec3>& points);
 
 // TetGen's exact predicates (Shewchuk's): orient3d's sign tells on which side of plane abc d lies (0: on it);
 // insphere is positive where e lies inside the sphere through abcd when orient3d(a, b, c, d) is positive, negative
-// inside when it is negative. extent: the largest absolute coordinate of the points tested (for the static filter).
+// inside when it is negative. extent: per axis, the largest difference between coordinates of the points tested (the
+// size of their bounding box; TetGen sets its own so), for the static filters; the predicates are process-wide.
 void init_exact_predicates(const glm::dvec3& extent);
 double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 double insphere_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,

@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <tbb/global_control.h>
@@ -87,10 +88,15 @@ double signed_volume(const mesh::Tets& T, const std::array<uint32_t, 4>& t) {
 }
 
 // Checks the tetrahedralization as a whole, independently of how it was built: every tet oriented as TetGen's,
-// neighbours symmetric and sharing the face, every inner face locally Delaunay (exact), the hull faces (neighbour
-// -1) each once, and the volume.
+// neighbours symmetric and sharing the face, every inner face locally Delaunay (exact), and the volume (where given).
 void check_delaunay(const mesh::Tets& T, double hull_volume) {
   REQUIRE(T.neighbours.size() == T.tets.size() * 4);
+  glm::dvec3 lo = T.points[0], hi = T.points[0];  // the predicates' filters are set for these points (process-wide)
+  for (const auto& p : T.points) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  mesh::init_exact_predicates(hi - lo);
   size_t flat_or_flipped = 0, asymmetric = 0, not_delaunay = 0;
   double volume = 0;
   for (size_t t = 0; t < T.tets.size(); ++t) {
@@ -118,7 +124,25 @@ void check_delaunay(const mesh::Tets& T, double hull_volume) {
   CHECK(flat_or_flipped == 0);
   CHECK(asymmetric == 0);
   CHECK(not_delaunay == 0);
-  CHECK(volume == doctest::Approx(hull_volume).epsilon(1e-9));
+  if (hull_volume > 0) CHECK(volume == doctest::Approx(hull_volume).epsilon(1e-9));
+}
+
+// Integer points exactly on the sphere of radius r = a^2 + b^2 + c^2 + d^2 about the origin (a quaternion's rotation
+// of (r, 0, 0)): every five of them cospherical, the most degenerate input there is.
+std::vector<glm::dvec3> integer_sphere_points(long r, size_t count, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  const long lim = long(std::sqrt(double(r)));
+  std::uniform_int_distribution<long> u(-lim, lim);
+  std::vector<glm::dvec3> out;
+  while (out.size() < count) {
+    const long a = u(rng), b = u(rng), c = u(rng), rest = r - a * a - b * b - c * c;
+    if (rest < 0) continue;
+    long d = std::lround(std::sqrt(double(rest)));
+    if (d * d != rest) continue;
+    if (rng() & 1) d = -d;
+    out.push_back(glm::dvec3(double(a * a + b * b - c * c - d * d), double(2 * (a * d + b * c)), double(2 * (b * d - a * c))));
+  }
+  return out;
 }
 
 }  // namespace
@@ -198,4 +222,39 @@ TEST_CASE("parallel_delaunay: few points, flat sets and bad coordinates") {
   CHECK_THROWS_AS(mesh::delaunay(flat), std::runtime_error);
   CHECK_THROWS_AS(mesh::parallel_delaunay(flat), std::runtime_error);
   CHECK_THROWS_AS(mesh::parallel_delaunay(tilted), std::runtime_error);
+}
+
+TEST_CASE("parallel_delaunay: cospherical and coplanar sets TetGen cannot mesh, and far-off scales") {
+  // 4,000 integer points on one sphere: all cospherical; then the same points' x and y on 11 planes (TetGen 1.5
+  // crashes on such a set). Both are meshed without the fallback, Delaunay by the exact check.
+  const auto sphere = integer_sphere_points(5525, 4000, 5);
+  mesh::DelaunayStats stats;
+  check_delaunay(mesh::parallel_delaunay(sphere, &stats), 0);
+  CHECK_FALSE(stats.fell_back);
+  std::mt19937_64 rng(7);
+  std::vector<glm::dvec3> planes;
+  for (const auto& p : sphere)
+    if (std::fabs(p.z) < 3000) planes.push_back(glm::dvec3(p.x, p.y, double(long(rng() % 11) - 5) * 1000));
+  const mesh::Tets layered = mesh::parallel_delaunay(planes, &stats);
+  CHECK_FALSE(stats.fell_back);
+  CHECK(stats.duplicates > 0);
+  check_delaunay(layered, 0);
+  // Coordinates scaled by 2^250 or 2^-250 (exact: no predicate changes sign) give the same tets: the predicates see
+  // the points scaled back (insphere's products would overflow or underflow, every test then "not inside").
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<glm::dvec3> points;
+  for (int i = 0; i < 3000; ++i) points.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
+  const auto reference = sorted_tets(mesh::parallel_delaunay(points));
+  for (const int e : {250, -250}) {
+    std::vector<glm::dvec3> scaled = points;
+    for (auto& p : scaled) p *= std::ldexp(1.0, e);
+    const mesh::Tets T = mesh::parallel_delaunay(scaled, &stats);
+    CHECK_FALSE(stats.fell_back);
+    CHECK(T.points == scaled);
+    CHECK(sorted_tets(T) == reference);
+  }
+  // Points a hair apart far from the origin: refused, not meshed wrong.
+  std::vector<glm::dvec3> huddle;
+  for (const auto& p : points) huddle.push_back(glm::dvec3(1.0) + p * std::ldexp(1.0, -220));
+  CHECK_THROWS_AS(mesh::parallel_delaunay(huddle), std::runtime_error);
 }
