@@ -78,4 +78,20 @@ inline uint32_t tet_across(const ElementsAround<4>& around, const std::vector<st
   return UINT32_MAX;
 }
 
+// Keeps, in order, the tets t for which keep(t) holds (it may read tets[t] and region[t]), with their regions; the
+// sliver passes drop replaced tets this way, drop_pockets a piece's pockets. Returns how many are kept.
+template <class Keep>
+size_t keep_tets(std::vector<std::array<uint32_t, 4>>& tets, std::vector<int>& region, Keep keep) {
+  size_t w = 0;
+  for (size_t t = 0; t < tets.size(); ++t) {
+    if (!keep(t)) continue;
+    tets[w] = tets[t];
+    region[w] = region[t];
+    ++w;
+  }
+  tets.resize(w);
+  region.resize(w);
+  return w;
+}
+
 }  // namespace cpmesh::mesh

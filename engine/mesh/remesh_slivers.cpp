@@ -313,15 +313,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     return report;
   }
   // Drop the replaced tets, then the points >= fixed that no tet uses.
-  size_t w = 0;
-  for (size_t t = 0; t < tets.size(); ++t) {
-    if (t < old_count && dead[t]) continue;
-    tets[w] = tets[t];
-    region[w] = region[t];
-    ++w;
-  }
-  tets.resize(w);
-  region.resize(w);
+  keep_tets(tets, region, [&](size_t t) { return t >= old_count || !dead[t]; });
   report.points_removed = remove_unused_points(P, tets, fixed);
   if (!had_regions) region.clear();
   return report;

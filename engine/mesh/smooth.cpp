@@ -558,16 +558,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
     }
     if (!done) ++report.failed;
   }
-  // Drop the emptied slots.
-  size_t w = 0;
-  for (size_t t = 0; t < tets.size(); ++t) {
-    if (tets[t][0] == dead) continue;
-    tets[w] = tets[t];
-    region[w] = region[t];
-    ++w;
-  }
-  tets.resize(w);
-  region.resize(w);
+  keep_tets(tets, region, [&](size_t t) { return tets[t][0] != dead; });  // drop the emptied slots
   if (!had_regions) region.clear();
   return report;
 }

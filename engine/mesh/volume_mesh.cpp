@@ -54,6 +54,15 @@ void sliver_passes(Tets& V, size_t fixed, const std::vector<std::array<uint32_t,
   split.failed = count_below_dihedral(V.points, V.tets, options.min_dihedral);
 }
 
+// The sliver passes' counts of a run, or of the seams, added to the totals (the angles and the slivers left are
+// not sums: the callers set them).
+void add_pass_counts(MaterialMeshes& out, const TetImproveReport& improvement, const SliverSplitReport& split) {
+  out.improvement.moves += improvement.moves;
+  out.sliver_split.flips += split.flips;
+  out.sliver_split.inserted += split.inserted;
+  out.sliver_split.remeshed += split.remeshed;
+}
+
 }  // namespace
 
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
@@ -70,17 +79,9 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
       const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
       inside[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
     }
-  size_t w = 0;
-  for (size_t t = 0; t < V.tets.size(); ++t)
-    if (inside[V.region[t]] > 0) {
-      V.tets[w] = V.tets[t];
-      V.region[w] = V.region[t];
-      ++w;
-    }
-  if (w == V.tets.size()) return;
-  V.tets.resize(w);
-  V.region.resize(w);
-  remove_unused_points(V.points, V.tets, fixed);
+  const size_t before = V.tets.size();
+  if (keep_tets(V.tets, V.region, [&](size_t t) { return inside[V.region[t]] > 0; }) < before)
+    remove_unused_points(V.points, V.tets, fixed);
 }
 
 namespace {
@@ -316,10 +317,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
                                                 : std::min(out.improvement.min_dihedral_before, r.improvement.min_dihedral_before);
     out.improvement.min_dihedral_after = first ? r.improvement.min_dihedral_after
                                                : std::min(out.improvement.min_dihedral_after, r.improvement.min_dihedral_after);
-    out.improvement.moves += r.improvement.moves;
-    out.sliver_split.flips += r.sliver_split.flips;
-    out.sliver_split.inserted += r.sliver_split.inserted;
-    out.sliver_split.remeshed += r.sliver_split.remeshed;
+    add_pass_counts(out, r.improvement, r.sliver_split);
     out.sliver_split.failed += r.sliver_split.failed;
     first = false;
   }
@@ -330,11 +328,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     TetImproveReport seam;
     SliverSplitReport refill;
     sliver_passes(T, points.size(), triangles, options, true, seam, refill);
-    out.improvement.moves += seam.moves;
+    add_pass_counts(out, seam, refill);
     out.improvement.min_dihedral_after = seam.min_dihedral_after;
-    out.sliver_split.flips += refill.flips;
-    out.sliver_split.inserted += refill.inserted;
-    out.sliver_split.remeshed += refill.remeshed;
     out.sliver_split.failed = refill.failed;
   }
   out.seam_seconds = seconds_since(t_seams);
