@@ -184,7 +184,8 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
 }
 
 TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with every stage and step; errors clear") {
-  const auto r = run_tool("cpmesh-bench-pipeline --volumes sphere:28,wedge-ball:32 --no-peer --max-size 2.5");
+  const auto r = run_tool("cpmesh-bench-pipeline --volumes sphere:28,wedge-ball:32 --no-peer --max-size 2.5 "
+                          "--compare-delaunay");
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
   std::istringstream lines(r.output);
   std::string line, header, sphere_row;
@@ -227,7 +228,16 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
     CHECK(j.at("peak_device_mib").get<double>() > 0);
     CHECK(j.at("mean_radius_ratio").get<double>() > 0.85);
     CHECK(j.at("min_dihedral_deg").get<double>() > 5);
+    // --compare-delaunay: TetGen and the parallel Delaunay on the run's particles (curve points added by the repair
+    // among them): the same tetrahedralization.
+    const auto& d = j.at("delaunay_compare");
+    CHECK(d.at("points").get<size_t>() >= j.at("particles").get<size_t>());
+    CHECK(d.at("tetgen_tets").get<size_t>() > d.at("points").get<size_t>());
+    CHECK(d.at("parallel_tets") == d.at("tetgen_tets"));
+    CHECK(d.at("fell_back") == false);
+    CHECK(d.at("threads").get<int>() >= 1);
   }
+  CHECK(contains(r.output, "Delaunay of its"));
   CHECK(rows[1].contains("junction_error"));  // the wedge ball's analytic triple curves
   CHECK(!rows[0].contains("junction_error"));
   // Scaling: a run per largest h, then each stage's exponent against the particle count.
@@ -243,6 +253,7 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
     runs += line.rfind("{\"benchmark\":\"pipeline\"", 0) == 0;
   }
   CHECK(runs == 2);
+  CHECK(!contains(sweep.output, "delaunay_compare"));  // only when asked
   REQUIRE(scaling.is_object());
   INFO(scaling.dump());
   REQUIRE(scaling.at("rows").size() == 2);
