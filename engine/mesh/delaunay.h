@@ -3,13 +3,15 @@
 // (Blelloch et al. 2012, "Internally deterministic parallel algorithms can be fast"). TetGen's Delaunay runs on one
 // thread; at the paper's head size (1.7 M particles) it was 14 s of the 43 s surface stage on a 16-core H200 host.
 //
-// The points are inserted in a seeded random order. Each round takes a batch of the points still waiting: every
-// point of the batch finds, on the tetrahedralization as the round found it, the tet holding it (a visibility walk
-// from a hint kept per grid cell) and its cavity (the tets whose open circumball holds it, grown across faces); it
-// then reserves its cavity and the tets just outside it (an atomic minimum of its place in the batch). A point that
-// holds every reservation it made replaces its cavity by the tets joining the point to the cavity's boundary; the
-// others wait for the next round, first in line. Reserved sets of points that commit together are disjoint, so their
-// insertions do not interact, and the result depends only on the order and the batch sizes, never on the threads.
+// The points go in levels of a seeded random order (BRIO), each level along a Morton curve cut into lanes; a round
+// takes the next point of every lane, with the points put off before first. Every point of the round finds, on the
+// tetrahedralization as the round found it, the tet holding it (a visibility walk from the tet its lane predecessor
+// made, else from its grid cell's last) and its cavity (the tets whose open circumball holds it, grown across
+// faces); it then reserves its cavity and the tets just outside it (an atomic minimum of its place in the round). A
+// point that holds every reservation it made replaces its cavity by the tets joining the point to the cavity's
+// boundary; the others wait for the next round. Reserved sets of points that commit together are disjoint, so their
+// insertions do not interact; new slots and hints are handed out in round order, so every output array depends on
+// the input alone, never on the threads.
 //
 // The hull is closed by tets with an infinite vertex (as in CGAL): a point beyond a hull face conflicts with its
 // infinite tet, and one in the face's plane when it lies strictly inside the face's circumcircle. With strict
