@@ -469,7 +469,7 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
   }
   B.start(first);
 
-  // Walks start from the tet last made in the point's grid cell.
+  // A walk with no tet from its lane predecessor starts from the tet last made in its grid cell.
   const size_t cells_per_axis = std::clamp<size_t>(size_t(std::cbrt(double(order.size()) / 4.0)), 1, 256);
   const glm::dvec3 cell_size = glm::max(hi - lo, glm::dvec3(1e-300)) / double(cells_per_axis);
   auto cell_of = [&](const glm::dvec3& p) {
