@@ -97,7 +97,7 @@ class Builder {
       : P_(points), mid(lo + 0.5 * size), size(size) {}
 
   const std::vector<glm::dvec3>& P_;
-  const glm::dvec3 mid, size;  // the points' bounding box (size widened as for init_exact_predicates)
+  const glm::dvec3 mid, size;  // the points' bounding box (size as init_exact_predicates widened it)
   struct Tet {                   // one record per tet: a cavity's tests touch one place in memory
     std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
     std::array<uint32_t, 4> n;    // (tet * 4 + corner) across the face opposite each corner
@@ -390,23 +390,18 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
   const double scale = largest > 0 ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
   std::vector<glm::dvec3> points(input.size());
   tbb::parallel_for(size_t(0), input.size(), [&](size_t i) { points[i] = input[i] * scale; });
-  glm::dvec3 lo(points[0]), hi(points[0]);
-  for (const auto& p : points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
+  const auto [lo, hi] = bounding_box(points);
   // TetGen's exact predicates filter on the largest coordinate differences (the bounding box, as TetGen sets them
-  // itself), widened as init_exact_predicates widens them: no axis under a thousandth of the largest.
-  glm::dvec3 size = hi - lo;
-  const double spread = std::max({size.x, size.y, size.z});
+  // itself).
+  const glm::dvec3 box = hi - lo;
+  const double spread = std::max({box.x, box.y, box.z});
   if (spread < std::ldexp(1.0, -200)) {
     char why[160];
     std::snprintf(why, sizeof why, "spread %g at coordinates up to %g", spread / scale, largest);
     throw std::runtime_error(std::string("Delaunay tetrahedralization: the points are too close together for the "
                                          "exact predicates (") + why + ")");
   }
-  size = glm::max(size, glm::dvec3(1e-3 * spread));
-  init_exact_predicates(size);
+  const glm::dvec3 size = init_exact_predicates(box);  // widened where the box is flat
   // TetGen, in a child process: it crashes on some degenerate sets (seen: integer points on a few parallel planes).
   auto fall_back = [&](const std::string& why) {
     st.fell_back = true;
@@ -471,7 +466,7 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
 
   // A walk with no tet from its lane predecessor starts from the tet last made in its grid cell.
   const size_t cells_per_axis = std::clamp<size_t>(size_t(std::cbrt(double(order.size()) / 4.0)), 1, 256);
-  const glm::dvec3 cell_size = glm::max(hi - lo, glm::dvec3(1e-300)) / double(cells_per_axis);
+  const glm::dvec3 cell_size = glm::max(box, glm::dvec3(1e-300)) / double(cells_per_axis);
   auto cell_of = [&](const glm::dvec3& p) {
     size_t idx = 0;
     for (int a = 2; a >= 0; --a)

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <numeric>
-#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -70,13 +69,8 @@ Adjacency build_adjacency(const Tets& T) {
 bool insert_points(Tets& T, Adjacency& adj, const std::vector<glm::dvec3>& points, const std::vector<uint32_t>& near_tet) {
   if (points.empty()) return true;
   if (T.tets.empty()) return false;
-  glm::dvec3 lo = points[0], hi = points[0];
-  for (const std::vector<glm::dvec3>* set : {&std::as_const(T.points), &points})
-    for (const auto& p : *set) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-  init_exact_predicates(hi - lo);
+  const auto old_box = bounding_box(T.points), new_box = bounding_box(points);
+  init_exact_predicates(glm::max(old_box[1], new_box[1]) - glm::min(old_box[0], new_box[0]));
   T.neighbours.clear();
   auto corner_point = [&](uint32_t t, int c) { return T.points[T.tets[t][size_t(c)]]; };
   auto face_point = [&](uint32_t t, int c, int k) { return T.points[T.tets[t][size_t(kFace[c][k])]]; };

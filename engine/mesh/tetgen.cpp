@@ -65,11 +65,7 @@ void run(const std::string& switches, tetgenio& in, tetgenio& out) {
 Tets delaunay(const std::vector<glm::dvec3>& points) {
   if (points.size() < 4) throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(points.size()));
   // TetGen asserts (aborts) when its points' bounding box is flat.
-  glm::dvec3 lo = points[0], hi = points[0];
-  for (const auto& p : points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
+  const auto [lo, hi] = bounding_box(points);
   if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z))
     throw std::runtime_error("Delaunay tetrahedralization: all " + std::to_string(points.size()) +
                              " points lie on one coordinate plane");
@@ -94,12 +90,22 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
   return t;
 }
 
-void init_exact_predicates(const glm::dvec3& extent) {
+glm::dvec3 init_exact_predicates(const glm::dvec3& extent) {
   // The static filters' error bounds grow with the extent; TetGen asserts each is positive (points on a coordinate
   // plane), and a larger one is only more careful.
   const double largest = std::max({extent.x, extent.y, extent.z, 1e-300});
   const glm::dvec3 e = glm::max(extent, glm::dvec3(largest * 1e-3));
   exactinit(0, 0, 0, e.x, e.y, e.z);
+  return e;
+}
+
+std::array<glm::dvec3, 2> bounding_box(const std::vector<glm::dvec3>& points) {
+  std::array<glm::dvec3, 2> box = {points.at(0), points.at(0)};
+  for (const auto& p : points) {
+    box[0] = glm::min(box[0], p);
+    box[1] = glm::max(box[1], p);
+  }
+  return box;
 }
 
 double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {

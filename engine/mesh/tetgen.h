@@ -29,7 +29,10 @@ Tets delaunay(const std::vector<glm::dvec3>& points);
 // insphere is positive where e lies inside the sphere through abcd when orient3d(a, b, c, d) is positive, negative
 // inside when it is negative. extent: per axis, the largest difference between coordinates of the points tested (the
 // size of their bounding box; TetGen sets its own so), for the static filters; the predicates are process-wide.
-void init_exact_predicates(const glm::dvec3& extent);
+// Returns the extent set: no axis under a thousandth of the largest (TetGen asserts each is positive).
+glm::dvec3 init_exact_predicates(const glm::dvec3& extent);
+// The corners of the points' bounding box (lo, hi); points must not be empty.
+std::array<glm::dvec3, 2> bounding_box(const std::vector<glm::dvec3>& points);
 double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 double insphere_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
                       const glm::dvec3& e);

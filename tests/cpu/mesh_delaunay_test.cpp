@@ -91,11 +91,7 @@ double signed_volume(const mesh::Tets& T, const std::array<uint32_t, 4>& t) {
 // neighbours symmetric and sharing the face, every inner face locally Delaunay (exact), and the volume (where given).
 void check_delaunay(const mesh::Tets& T, double hull_volume) {
   REQUIRE(T.neighbours.size() == T.tets.size() * 4);
-  glm::dvec3 lo = T.points[0], hi = T.points[0];  // the predicates' filters are set for these points (process-wide)
-  for (const auto& p : T.points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
+  const auto [lo, hi] = mesh::bounding_box(T.points);  // the predicates are process-wide: set them for these points
   mesh::init_exact_predicates(hi - lo);
   size_t flat_or_flipped = 0, asymmetric = 0, not_delaunay = 0;
   double volume = 0;
