@@ -1,11 +1,10 @@
 #include "mesh/delaunay.h"
 
-#include "mesh/child_process.h"
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -93,11 +92,14 @@ struct Scratch {  // per thread
 
 class Builder {
  public:
-  Builder(const std::vector<glm::dvec3>& points, const glm::dvec3& lo, const glm::dvec3& size)
-      : P_(points), mid(lo + 0.5 * size), size(size) {}
+  explicit Builder(const std::vector<glm::dvec3>& points) : P_(points) {}
 
   const std::vector<glm::dvec3>& P_;
-  const glm::dvec3 mid, size;  // the points' bounding box (size as init_exact_predicates widened it)
+  glm::dvec3 mid{0}, size{0};  // the points' bounding box (size as init_exact_predicates widened it)
+  void set_box(const glm::dvec3& lo, const glm::dvec3& widened) {
+    mid = lo + 0.5 * widened;
+    size = widened;
+  }
   struct Tet {                   // one record per tet: a cavity's tests touch one place in memory
     std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
     std::array<uint32_t, 4> n;    // (tet * 4 + corner) across the face opposite each corner
@@ -315,82 +317,135 @@ class Builder {
           }
   }
 
-  // Checks every face (see the header); empty when all hold.
-  std::string check(const std::vector<uint8_t>& meshed) const {
-    struct Bad {
-      std::string why;
-      void set(const char* w) {
-        if (why.empty()) why = w;
+  // The checks of the header on the faces of live tet t; empty when all hold.
+  // Each inner face's Delaunay test from both sides, or only from its tet of the higher index (a check of all tets).
+  std::string check_tet(uint32_t t, bool both_sides) const {
+    const auto& v = T[t].v;
+    const int k = inf_corner(v);
+    for (uint32_t c = 0; c < 4; ++c) {
+      const uint32_t n = T[t].n[c];
+      if (n == kNone || T[n / 4].n[n % 4] != t * 4 + c || !alive(n / 4)) return "an inconsistent adjacency";
+      const auto& u = T[n / 4].v;
+      const uint32_t apex = u[n % 4];
+      for (uint32_t x = 0; x < 4; ++x)
+        if (x != c && std::find(u.begin(), u.end(), v[x]) == u.end()) return "neighbours that share no face";
+      if (k < 0) {
+        if (c == 0 && !(orient(v) > 0)) return "a tet not positively oriented";
+        if (apex != kInf && (both_sides || n / 4 > t) && insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], P_[apex]) > 0)
+          return "a face that is not locally Delaunay";
+      } else if (c == uint32_t(k)) {
+        if (apex == kInf || !(orient_with(v, k, P_[apex]) < 0)) return "a hull face that faces inwards";
+      } else if (apex == kInf || inf_corner(u) < 0 || orient_with(v, k, P_[apex]) > 0) {
+        return "a hull that is not convex";
       }
-    };
+    }
+    return {};
+  }
+
+  // Checks the faces of the live tets among `tets` (every tet made so far where null), and that every meshed point
+  // from first_point on is a corner of one of them; empty when all hold. A point meshed before an insertion stays a
+  // vertex (it lies on, never strictly inside, the circumspheres of its tets), and the tets an insertion did not make
+  // keep their faces, so after one it is enough to check the tets it made from its first point on.
+  std::string check(const std::vector<uint8_t>& meshed, const std::vector<uint32_t>* tets = nullptr,
+                    size_t first_point = 0) const {
+    const size_t n = tets ? tets->size() : count;
+    auto tet_at = [&](size_t i) { return tets ? (*tets)[i] : uint32_t(i); };
     const std::string bad = tbb::parallel_reduce(
-        tbb::blocked_range<uint32_t>(0, count, 4096), std::string(),
-        [&](const tbb::blocked_range<uint32_t>& r, std::string found) {
-          for (uint32_t t = r.begin(); t < r.end() && found.empty(); ++t) {
-            if (!alive(t)) continue;
-            const auto& v = T[t].v;
-            const int k = inf_corner(v);
-            for (uint32_t c = 0; c < 4 && found.empty(); ++c) {
-              const uint32_t n = T[t].n[c];
-              if (n == kNone || T[n / 4].n[n % 4] != t * 4 + c || !alive(n / 4)) {
-                found = "an inconsistent adjacency";
-                break;
-              }
-              const auto& u = T[n / 4].v;
-              const uint32_t apex = u[n % 4];
-              for (uint32_t x = 0; x < 4; ++x)
-                if (x != c && std::find(u.begin(), u.end(), v[x]) == u.end()) found = "neighbours that share no face";
-              if (!found.empty()) break;
-              if (k < 0) {
-                if (c == 0 && !(orient(v) > 0)) found = "a tet not positively oriented";
-                if (apex != kInf && n / 4 > t &&
-                    insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], P_[apex]) > 0)
-                  found = "a face that is not locally Delaunay";
-              } else if (c == uint32_t(k)) {
-                if (apex == kInf || !(orient_with(v, k, P_[apex]) < 0)) found = "a hull face that faces inwards";
-              } else if (apex == kInf || inf_corner(u) < 0 || orient_with(v, k, P_[apex]) > 0) {
-                found = "a hull that is not convex";
-              }
-            }
-          }
+        tbb::blocked_range<size_t>(0, n, 4096), std::string(),
+        [&](const tbb::blocked_range<size_t>& r, std::string found) {
+          for (size_t i = r.begin(); i < r.end() && found.empty(); ++i)
+            if (alive(tet_at(i))) found = check_tet(tet_at(i), tets != nullptr);
           return found;
         },
         [](std::string a, const std::string& b) { return a.empty() ? b : a; });
     if (!bad.empty()) return bad;
-    std::vector<uint8_t> seen(P_.size(), 0);
-    for (uint32_t t = 0; t < count; ++t)
-      if (alive(t))
-        for (uint32_t x : T[t].v)
-          if (x != kInf) seen[x] = 1;
-    for (size_t i = 0; i < P_.size(); ++i)
-      if (meshed[i] && !seen[i]) return "a point in no tet";
+    std::vector<uint8_t> seen(P_.size() - first_point, 0);
+    for (size_t i = 0; i < n; ++i)
+      if (alive(tet_at(i)))
+        for (uint32_t x : T[tet_at(i)].v)
+          if (x != kInf && x >= first_point) seen[x - first_point] = 1;
+    for (size_t i = first_point; i < P_.size(); ++i)
+      if (meshed[i] && !seen[i - first_point]) return "a point in no tet";
     return {};
   }
 };
 
+
+constexpr uint64_t kOrderSeed = 0x5eed;
+
 }  // namespace
 
-Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stats) {
-  DelaunayStats local;
-  DelaunayStats& st = stats ? *stats : local;
-  st = {};
+struct DelaunayMesh::Impl {
+  std::vector<glm::dvec3> input;   // every point given, as given
+  std::vector<glm::dvec3> points;  // the same scaled by `scale` (what the predicates see)
+  double scale = 1;
+  glm::dvec3 lo{0}, hi{0};         // the scaled points' bounding box
+  std::vector<uint8_t> meshed;     // 0: an exact duplicate of an earlier point
+  std::vector<uint32_t> order;     // the meshed points in insertion order (the first four start the mesh)
+  size_t cells_per_axis = 1;       // the grid of walk hints over the box the build saw
+  glm::dvec3 grid_lo{0}, cell_size{1};
+  std::vector<uint32_t> hint;      // per grid cell: a tet made there last
+  std::unique_ptr<Builder> B;      // empty where TetGen meshed the points
+  Tets tetgen;                     // TetGen's tets (fallback)
+  DelaunayStats st;
+
+  static void check_finite(const std::vector<glm::dvec3>& p) {
+    for (const auto& x : p)
+      if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
+        throw std::runtime_error("Delaunay tetrahedralization: a point with a coordinate that is not finite");
+  }
+  // The predicates' filters (process-wide) for the current box; where it is flat, widened (the collinearity probes
+  // go by the widened size).
+  void set_predicates() { B->set_box(lo, init_exact_predicates(hi - lo)); }
+  size_t cell_of(const glm::dvec3& p) const {
+    size_t idx = 0;
+    for (int a = 2; a >= 0; --a)
+      idx = idx * cells_per_axis +
+            std::min(cells_per_axis - 1, size_t(std::max(0.0, (p[a] - grid_lo[a]) / cell_size[a])));
+    return idx;
+  }
+
+  void fall_back(const std::string& why) {
+    st.fell_back = true;
+    st.why = why;
+    B.reset();
+    const std::string bytes = run_in_child("Delaunay tetrahedralization (TetGen)", [&] {
+      ByteWriter w;
+      put_tets(w, delaunay(points));
+      return w.take();
+    });
+    ByteReader r(bytes);
+    if (!get_tets(r, tetgen) || !r.done()) throw std::runtime_error("TetGen: truncated result from the child process");
+  }
+
+  // Meshes `input` from scratch.
+  void build();
+  // Inserts order[begin..] into the mesh, the tets it makes appended to *made where given. False where an insertion
+  // failed (B->why says how).
+  bool run(size_t begin, std::vector<uint32_t>* made = nullptr);
+};
+
+void DelaunayMesh::Impl::build() {
+  B.reset();
+  tetgen = {};
+  st.fell_back = false;
+  st.why.clear();
   if (input.size() < 4)
     throw std::runtime_error("Delaunay tetrahedralization needs at least 4 points, got " + std::to_string(input.size()));
   if (input.size() > (size_t(1) << 30) / 8)  // faces are named tet * 4 + corner in 32 bits, about 7 tets per point
     throw std::runtime_error("Delaunay tetrahedralization: too many points (" + std::to_string(input.size()) + ")");
+  check_finite(input);
   // The predicates see the points scaled by a power of two (exact: no sign changes) to a largest coordinate in
   // [1, 2): far from 1, insphere's products overflow or underflow and every test says "not inside", a valid but not
   // Delaunay tetrahedralization that check() (the same predicates) would pass.
   double largest = 0;
-  for (const auto& p : input) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw std::runtime_error("Delaunay tetrahedralization: a point with a coordinate that is not finite");
-    largest = std::max({largest, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
-  }
-  const double scale = largest > 0 ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
-  std::vector<glm::dvec3> points(input.size());
+  for (const auto& p : input) largest = std::max({largest, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+  scale = largest > 0 ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+  points.resize(input.size());
   tbb::parallel_for(size_t(0), input.size(), [&](size_t i) { points[i] = input[i] * scale; });
-  const auto [lo, hi] = bounding_box(points);
+  const auto box_corners = bounding_box(points);
+  lo = box_corners[0];
+  hi = box_corners[1];
   // TetGen's exact predicates filter on the largest coordinate differences (the bounding box, as TetGen sets them
   // itself).
   const glm::dvec3 box = hi - lo;
@@ -401,22 +456,8 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     throw std::runtime_error(std::string("Delaunay tetrahedralization: the points are too close together for the "
                                          "exact predicates (") + why + ")");
   }
-  const glm::dvec3 size = init_exact_predicates(box);  // widened where the box is flat
-  // TetGen, in a child process: it crashes on some degenerate sets (seen: integer points on a few parallel planes).
-  auto fall_back = [&](const std::string& why) {
-    st.fell_back = true;
-    st.why = why;
-    const std::string bytes = run_in_child("Delaunay tetrahedralization (TetGen)", [&] {
-      ByteWriter w;
-      put_tets(w, delaunay(points));
-      return w.take();
-    });
-    Tets out;
-    ByteReader r(bytes);
-    if (!get_tets(r, out) || !r.done()) throw std::runtime_error("TetGen: truncated result from the child process");
-    out.points = input;
-    return out;
-  };
+  B = std::make_unique<Builder>(points);
+  set_predicates();
 
   // Exact duplicates: only the first is meshed.
   std::vector<uint32_t> by_place(points.size());
@@ -428,7 +469,8 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     if (p.z != q.z) return p.z < q.z;
     return a < b;
   });
-  std::vector<uint8_t> meshed(points.size(), 1);
+  meshed.assign(points.size(), 1);
+  st.duplicates = 0;
   for (size_t i = 1; i < by_place.size(); ++i)
     if (points[by_place[i]] == points[by_place[i - 1]]) {
       meshed[by_place[i]] = 0;
@@ -436,13 +478,12 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     }
 
   // A seeded random order; the first four points that span space start the mesh.
-  std::vector<uint32_t> order;
+  order.clear();
   order.reserve(points.size());
   for (uint32_t i = 0; i < points.size(); ++i)
     if (meshed[i]) order.push_back(i);
-  std::shuffle(order.begin(), order.end(), std::mt19937_64(0x5eed));
-  Builder B(points, lo, size);
-  B.T.reserve(size_t(7.0 * double(points.size())) + 64);  // about 6.5 tets per point, a few dead
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(kOrderSeed));
+  B->T.reserve(size_t(7.0 * double(points.size())) + 64);  // about 6.5 tets per point, a few dead
   std::array<uint32_t, 4> first;
   {
     size_t found = 0;
@@ -454,7 +495,7 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     for (size_t i = found; i < order.size() && found < 4; ++i) {
       const glm::dvec3& p = points[order[i]];
       if (found == 1 ? p != points[first[0]]
-          : found == 2 ? !B.collinear(points[first[0]], points[first[1]], p)
+          : found == 2 ? !B->collinear(points[first[0]], points[first[1]], p)
                        : orient3d_exact(points[first[0]], points[first[1]], points[first[2]], p) != 0)
         take(i);
     }
@@ -462,19 +503,19 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
       throw std::runtime_error("Delaunay tetrahedralization: all " + std::to_string(order.size()) +
                                " distinct points lie on one plane");
   }
-  B.start(first);
+  B->start(first);
 
   // A walk with no tet from its lane predecessor starts from the tet last made in its grid cell.
-  const size_t cells_per_axis = std::clamp<size_t>(size_t(std::cbrt(double(order.size()) / 4.0)), 1, 256);
-  const glm::dvec3 cell_size = glm::max(box, glm::dvec3(1e-300)) / double(cells_per_axis);
-  auto cell_of = [&](const glm::dvec3& p) {
-    size_t idx = 0;
-    for (int a = 2; a >= 0; --a)
-      idx = idx * cells_per_axis + std::min(cells_per_axis - 1, size_t(std::max(0.0, (p[a] - lo[a]) / cell_size[a])));
-    return idx;
-  };
-  std::vector<uint32_t> hint(cells_per_axis * cells_per_axis * cells_per_axis, 0);
+  cells_per_axis = std::clamp<size_t>(size_t(std::cbrt(double(order.size()) / 4.0)), 1, 256);
+  grid_lo = lo;
+  cell_size = glm::max(box, glm::dvec3(1e-300)) / double(cells_per_axis);
+  hint.assign(cells_per_axis * cells_per_axis * cells_per_axis, 0);
 
+  if (!run(4)) return fall_back(B->why);
+  if (const std::string bad = B->check(meshed); !bad.empty()) return fall_back(bad);
+}
+
+bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tets) {
   // Levels of the random order (BRIO, Amenta et al. 2003): 1,024 points one at a time, then levels that double the
   // points meshed. A level's points are sorted along a Morton curve and cut into lanes, consecutive stretches of the
   // curve; a round takes the next point of every lane (with the ones put off before first). Each point walks from the
@@ -491,16 +532,17 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     }
     return code;
   };
+  Builder& b = *B;
   tbb::enumerable_thread_specific<Scratch> scratch;
   std::vector<Work> batch;
   std::vector<std::pair<uint32_t, uint32_t>> waiting;  // (point, place) that lost a reservation: first in later rounds
   std::vector<uint32_t> made_at;  // per place in the level: a tet its point made (kNone: not yet)
   std::vector<std::pair<uint64_t, uint32_t>> level;
   std::vector<uint32_t> queue;
-  std::vector<uint8_t> won;
+  std::vector<uint8_t> won, duplicate;
   std::vector<uint32_t> base;  // the level's places in the order they are taken
-  size_t inserted = 4;
-  for (size_t begin = 4; begin < order.size();) {
+  size_t inserted = first_level;
+  for (size_t begin = first_level; begin < order.size();) {
     const size_t end = std::min(order.size(), begin < 1024 ? 1024 : 2 * begin);
     level.resize(end - begin);
     tbb::parallel_for(begin, end, [&](size_t i) { level[i - begin] = {morton(order[i]), order[i]}; });
@@ -535,61 +577,77 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
       waiting.erase(waiting.begin(), waiting.begin() + ptrdiff_t(from_waiting));
       ++st.rounds;
 
+      duplicate.assign(batch.size(), 0);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, batch.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
         Scratch& s = scratch.local();
         for (size_t j = r.begin(); j < r.end(); ++j) {
           Work& w = batch[j];
           const glm::dvec3& q = points[w.point];
-          const uint32_t t = B.locate(q, w.hint != kNone ? w.hint : hint[cell_of(q)]);
+          const uint32_t t = b.locate(q, w.hint != kNone ? w.hint : hint[cell_of(q)]);
           if (t == kNone) {
-            B.fail("a walk that did not end");
+            b.fail("a walk that did not end");
             continue;
           }
-          B.find_cavity(w, t, s.set);
+          // At a point already meshed (only an inserted point can be: the build drops duplicates first), the walk
+          // ends in a tet with that point as a corner.
+          const auto& v = b.T[t].v;
+          if (Builder::inf_corner(v) < 0 &&
+              (points[v[0]] == q || points[v[1]] == q || points[v[2]] == q || points[v[3]] == q)) {
+            duplicate[j] = 1;
+            w.touched.clear();
+            continue;
+          }
+          b.find_cavity(w, t, s.set);
           for (uint32_t u : w.touched) {
-            std::atomic_ref<uint32_t> res(B.T[u].reserve);
+            std::atomic_ref<uint32_t> res(b.T[u].reserve);
             uint32_t cur = res.load(std::memory_order_relaxed);
             while (uint32_t(j) < cur && !res.compare_exchange_weak(cur, uint32_t(j), std::memory_order_relaxed)) {
             }
           }
         }
       }, tbb::static_partitioner());
-      if (B.failed) return fall_back(B.why);
+      if (b.failed) return false;
       // The points holding all their reservations, and their new slots in batch order: with the hints set in that
       // order too, every array depends on the input alone, not on the threads.
       won.assign(batch.size(), 0);
       tbb::parallel_for(size_t(0), batch.size(), [&](size_t j) {
-        bool mine = true;
-        for (uint32_t u : batch[j].touched) mine = mine && load(B.T[u].reserve) == uint32_t(j);
+        bool mine = !duplicate[j];
+        for (uint32_t u : batch[j].touched) mine = mine && load(b.T[u].reserve) == uint32_t(j);
         won[j] = mine;
       });
       base.resize(batch.size());
-      uint32_t made = B.count;
+      uint32_t made = b.count;
       for (size_t j = 0; j < batch.size(); ++j) {
         base[j] = made;
         if (won[j] && batch[j].border.size() > batch[j].cavity.size())
           made += uint32_t(batch[j].border.size() - batch[j].cavity.size());
       }
-      B.grow(made);
+      b.grow(made);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, batch.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
         Scratch& s = scratch.local();
         for (size_t j = r.begin(); j < r.end(); ++j)
-          if (won[j]) B.commit(batch[j], base[j], s);
+          if (won[j]) b.commit(batch[j], base[j], s);
       }, tbb::static_partitioner());
-      if (B.failed) return fall_back(B.why);
-      B.count = made;
+      if (b.failed) return false;
+      b.count = made;
       for (size_t j = 0; j < batch.size(); ++j)
         if (won[j]) {
           const Work& w = batch[j];
           hint[cell_of(points[w.point])] = w.cavity[0];
           if (w.place != kNone) made_at[w.place] = w.cavity[0];
+          if (made_tets)
+            for (size_t k = 0; k < w.border.size(); ++k)
+              made_tets->push_back(k < w.cavity.size() ? w.cavity[k] : base[j] + uint32_t(k - w.cavity.size()));
         }
       tbb::parallel_for(size_t(0), batch.size(), [&](size_t j) {
-        for (uint32_t u : batch[j].touched) store(B.T[u].reserve, kNone);
+        for (uint32_t u : batch[j].touched) store(b.T[u].reserve, kNone);
       });
       for (size_t j = 0; j < batch.size(); ++j) {
         if (won[j]) {
           ++inserted;
+        } else if (duplicate[j]) {
+          meshed[batch[j].point] = 0;
+          ++st.duplicates;
         } else {
           waiting.push_back({batch[j].point, batch[j].place});
           ++st.retries;
@@ -598,32 +656,116 @@ Tets parallel_delaunay(const std::vector<glm::dvec3>& input, DelaunayStats* stat
     }
     begin = end;
   }
+  return true;
+}
 
-  if (const std::string bad = B.check(meshed); !bad.empty()) return fall_back(bad);
+DelaunayMesh::DelaunayMesh(const std::vector<glm::dvec3>& points) : impl_(std::make_unique<Impl>()) {
+  impl_->input = points;
+  impl_->build();
+}
 
+DelaunayMesh::~DelaunayMesh() = default;
+DelaunayMesh::DelaunayMesh(DelaunayMesh&&) noexcept = default;
+DelaunayMesh& DelaunayMesh::operator=(DelaunayMesh&&) noexcept = default;
+
+const DelaunayStats& DelaunayMesh::stats() const { return impl_->st; }
+
+void DelaunayMesh::insert(const std::vector<glm::dvec3>& more) {
+  Impl& m = *impl_;
+  if (more.empty()) return;
+  Impl::check_finite(more);
+  if (m.input.size() + more.size() > (size_t(1) << 30) / 8)
+    throw std::runtime_error("Delaunay tetrahedralization: too many points (" +
+                             std::to_string(m.input.size() + more.size()) + ")");
+  const size_t old = m.input.size();
+  m.input.insert(m.input.end(), more.begin(), more.end());
+  // Afresh where TetGen made the mesh, or where a new point would change the scale (a coordinate of 2 or more after
+  // scaling).
+  bool afresh = !m.B;
+  for (const auto& p : more)
+    afresh = afresh || std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) * m.scale >= 2.0;
+  if (afresh) {
+    ++m.st.rebuilds;
+    return m.build();
+  }
+  for (const auto& p : more) {
+    m.points.push_back(p * m.scale);
+    m.lo = glm::min(m.lo, m.points.back());
+    m.hi = glm::max(m.hi, m.points.back());
+  }
+  m.set_predicates();  // the box may have grown; other code may have set the process-wide predicates since
+  // Exact duplicates among the new points: only the first goes in (the walk finds those of meshed points).
+  std::vector<uint32_t> fresh(more.size());
+  std::iota(fresh.begin(), fresh.end(), uint32_t(old));
+  tbb::parallel_sort(fresh.begin(), fresh.end(), [&](uint32_t a, uint32_t b) {
+    const auto &p = m.points[a], &q = m.points[b];
+    if (p.x != q.x) return p.x < q.x;
+    if (p.y != q.y) return p.y < q.y;
+    if (p.z != q.z) return p.z < q.z;
+    return a < b;
+  });
+  m.meshed.resize(m.input.size(), 1);
+  for (size_t i = 1; i < fresh.size(); ++i)
+    if (m.points[fresh[i]] == m.points[fresh[i - 1]]) {
+      m.meshed[fresh[i]] = 0;
+      ++m.st.duplicates;
+    }
+  const size_t begin = m.order.size();
+  for (uint32_t i = uint32_t(old); i < m.input.size(); ++i)
+    if (m.meshed[i]) m.order.push_back(i);
+  std::shuffle(m.order.begin() + ptrdiff_t(begin), m.order.end(), std::mt19937_64(kOrderSeed + begin));
+  std::vector<uint32_t> made;
+  if (m.run(begin, &made)) {
+    std::sort(made.begin(), made.end());
+    made.erase(std::unique(made.begin(), made.end()), made.end());
+    if (const std::string bad = m.B->check(m.meshed, &made, old); bad.empty()) return;
+  }
+  ++m.st.rebuilds;
+  m.build();
+}
+
+Tets DelaunayMesh::tets(Adjacency* adjacency) const {
+  const Impl& m = *impl_;
+  if (!m.B) {
+    Tets out = m.tetgen;
+    out.points = m.input;
+    if (adjacency) *adjacency = build_adjacency(out);
+    return out;
+  }
+  const Builder& b = *m.B;
   // The finite tets, renumbered (in slot order), with TetGen's orientation (corners 0 and 1 swapped, and their
   // faces' neighbours); the hull's neighbours are -1.
-  std::vector<uint32_t> index(B.count);
-  tbb::parallel_for(uint32_t(0), B.count, [&](uint32_t t) {
-    index[t] = B.alive(t) && Builder::inf_corner(B.T[t].v) < 0 ? 0 : kNone;
+  std::vector<uint32_t> index(b.count);
+  tbb::parallel_for(uint32_t(0), b.count, [&](uint32_t t) {
+    index[t] = b.alive(t) && Builder::inf_corner(b.T[t].v) < 0 ? 0 : kNone;
   });
   uint32_t finite = 0;
   for (uint32_t& i : index)
     if (i != kNone) i = finite++;
   Tets out;
-  out.points = input;
+  out.points = m.input;
   out.tets.resize(finite);
   out.neighbours.resize(size_t(finite) * 4);
-  tbb::parallel_for(uint32_t(0), B.count, [&](uint32_t t) {
+  if (adjacency) adjacency->neighbour.resize(size_t(finite) * 4);
+  auto corner = [](uint32_t c) { return c < 2 ? 1 - c : c; };
+  tbb::parallel_for(uint32_t(0), b.count, [&](uint32_t t) {
     if (index[t] == kNone) return;
-    const auto& v = B.T[t].v;
+    const auto& v = b.T[t].v;
     out.tets[index[t]] = {v[1], v[0], v[2], v[3]};
     for (uint32_t c = 0; c < 4; ++c) {
-      const uint32_t n = index[B.T[t].n[c] / 4];
-      out.neighbours[size_t(index[t]) * 4 + (c < 2 ? 1 - c : c)] = n == kNone ? -1 : int32_t(n);
+      const uint32_t across = b.T[t].n[c], n = index[across / 4];
+      const size_t face = size_t(index[t]) * 4 + corner(c);
+      out.neighbours[face] = n == kNone ? -1 : int32_t(n);
+      if (adjacency) adjacency->neighbour[face] = n == kNone ? Adjacency::kHull : n * 4 + corner(across % 4);
     }
   });
   return out;
+}
+
+Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* stats) {
+  DelaunayMesh mesh(points);
+  if (stats) *stats = mesh.stats();
+  return mesh.tets();
 }
 
 }  // namespace cpmesh::mesh

@@ -20,14 +20,17 @@
 // Exact predicates (TetGen's, Shewchuk's) throughout, on the points scaled by a power of two to coordinates under 2
 // (exact; far from 1 their products overflow or underflow).
 //
-// Before returning, every face is checked: finite tets positively oriented, neighbours sharing the face, each inner
-// face locally Delaunay (the apex across it not strictly inside the tet's circumsphere), the hull locally convex.
-// Should any check fail (or an insertion meet a degenerate hull: a point on the line of a hull edge, which exact
-// predicates should never let happen), the points are meshed by TetGen's delaunay() in a child process instead (it
-// crashes on some degenerate sets) and DelaunayStats::fell_back says why.
+// After the build, and after each later insertion of points, every face is checked: finite tets positively
+// oriented, neighbours sharing the face, each inner face locally Delaunay (the apex across it not strictly inside
+// the tet's circumsphere), the hull locally convex. Should a build's check fail (or an insertion meet a degenerate
+// hull: a point on the line of a hull edge, which exact predicates should never let happen), the points are meshed
+// by TetGen's delaunay() in a child process instead (it crashes on some degenerate sets) and DelaunayStats::fell_back
+// says why; should a later insertion's, all points are built afresh.
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "mesh/adjacency.h"
 #include "mesh/tetgen.h"
 
 namespace cpmesh::mesh {
@@ -36,18 +39,44 @@ struct DelaunayStats {
   size_t rounds = 0;         // batches
   size_t retries = 0;        // insertions put off to a later round (lost a reservation)
   size_t duplicates = 0;     // points at exactly the place of an earlier one (not meshed)
+  size_t rebuilds = 0;       // DelaunayMesh::insert calls that meshed all points afresh
   bool fell_back = false;    // meshed by TetGen instead
   std::string why;           // why it fell back
 };
 
-// Same output as delaunay() (tetgen.h): points = the input, tets over input indices (an exact duplicate of an earlier
-// point is in no tet), neighbours filled (4 per tet, the one across the face opposite each corner, -1 on the hull),
-// every tet oriented as TetGen's are (orient3d_exact < 0). The tets are the same in general position (the
-// tetrahedralization is unique), listed in another order. Throws std::runtime_error with fewer than 4 points, a
-// coordinate that is not finite, all points on one plane, or points too close together for the predicates (a spread
-// under 2^-200 of their largest coordinate).
-// Uses the TBB threads the caller allows (tbb::global_control). Calls init_exact_predicates: not to be run beside
-// other users of the exact predicates.
+// A Delaunay tetrahedralization that more points can be inserted into (the repair of extract.h adds a few points on
+// triple curves to a mesh of millions; the same rounds insert them). Throws std::runtime_error with fewer than 4
+// points, a coordinate that is not finite, all points on one plane, too many points (150 M: faces are named in 32
+// bits), or points too close together for the predicates (a spread under 2^-200 of their largest coordinate).
+// Uses the TBB threads the caller allows (tbb::global_control). Sets the process-wide exact predicates
+// (init_exact_predicates) when it builds and at each insert: not to be run beside other users of them.
+class DelaunayMesh {
+ public:
+  explicit DelaunayMesh(const std::vector<glm::dvec3>& points);
+  ~DelaunayMesh();
+  DelaunayMesh(DelaunayMesh&&) noexcept;
+  DelaunayMesh& operator=(DelaunayMesh&&) noexcept;
+
+  // Adds points after those given so far (they are numbered on from there), each into the mesh as it stands, by the
+  // same rounds as the build: a point beyond the hull grows it, an exact duplicate of a point given before is in no
+  // tet. All points are meshed afresh instead (stats().rebuilds) where TetGen made the mesh, where a new coordinate
+  // is 2 or more times the largest the build saw, or where an insertion or the check after it fails. Throws (and
+  // adds nothing) where a new coordinate is not finite.
+  void insert(const std::vector<glm::dvec3>& points);
+  // The tetrahedralization of every point given, as delaunay() (tetgen.h) gives it: points = the input, tets over
+  // input indices, neighbours filled (4 per tet, the one across the face opposite each corner, -1 on the hull), every
+  // tet oriented as TetGen's are (orient3d_exact < 0). The tets are the same in general position (the
+  // tetrahedralization is unique), listed in another order. Where adjacency is given, the tets' face adjacency too
+  // (as build_adjacency finds it, without its search).
+  Tets tets(Adjacency* adjacency = nullptr) const;
+  const DelaunayStats& stats() const;  // summed over the build and the insertions
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// DelaunayMesh(points).tets(), its stats in *stats.
 Tets parallel_delaunay(const std::vector<glm::dvec3>& points, DelaunayStats* stats = nullptr);
 
 }  // namespace cpmesh::mesh

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "fields/indicator_fields.h"
+#include "mesh/adjacency.h"
 #include "mesh/tetgen.h"
 
 namespace cpmesh::mesh {
@@ -28,22 +29,6 @@ struct InterfaceMesh {
   std::vector<std::array<uint16_t, 2>> pair;       // material indices (IndicatorFields::labels), pair[0] < pair[1]
 };
 
-// Face neighbours: neighbour[t * 4 + c] is the (tet * 4 + corner) across the face of tet t opposite corner c.
-struct Adjacency {
-  static constexpr uint32_t kHull = ~0u;
-  std::vector<uint32_t> neighbour;
-};
-// From tets.neighbours where delaunay() filled them (linear, parallel), else by sorting the faces.
-Adjacency build_adjacency(const Tets& tets);
-// Bowyer-Watson insertion of `points` into a Delaunay tetrahedralization (delaunay()'s) and its adjacency, one at a
-// time: the point's cavity (the tets whose circumsphere holds it strictly), found by a visibility walk from
-// near_tet[i] and grown across faces, is replaced by the tets joining the cavity's boundary faces to the point. Exact
-// predicates. The points are appended to tets.points; tets.neighbours is cleared (adj is the adjacency from here
-// on). A few points in millions cost microseconds instead of a new tetrahedralization. Returns false where a point
-// lies outside the hull, on a vertex, or makes a flat tet; the tets are then a valid Delaunay tetrahedralization of
-// the points inserted so far, and the caller meshes all points afresh.
-bool insert_points(Tets& tets, Adjacency& adj, const std::vector<glm::dvec3>& points,
-                   const std::vector<uint32_t>& near_tet);
 // The face of tet tc / 4 opposite corner tc % 4, ordered so its normal points out of the tet.
 std::array<uint32_t, 3> outward_face(const Tets& tets, uint32_t tc);
 

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <map>
 #include <numeric>
+#include <optional>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -164,8 +165,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
 
   // Delaunay, labels, repair; where wrong faces are left (a triangle spanning a triple curve that is sampled too
-  // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization,
-  // or all points meshed afresh where an insertion is degenerate) and label again.
+  // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization:
+  // DelaunayMesh::insert) and label again.
   begin("delaunay and extraction");
   double tetrahedralization_seconds = 0;  // the rest of the stage (from its start) is the extraction
   const auto stage_start = t;             // when the stage began (the last stage_done)
@@ -174,11 +175,12 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     step();
     tetrahedralization_seconds += std::chrono::duration<double>(clock::now() - s0).count();
   };
+  std::optional<DelaunayMesh> delaunay_mesh;  // kept for the repair's insertions
   Tets T;
   Adjacency adj;
   timed([&] {
-    T = parallel_delaunay(points);
-    adj = build_adjacency(T);
+    delaunay_mesh.emplace(points);
+    T = delaunay_mesh->tets(&adj);
   });
   std::vector<uint16_t> material, hull;
   for (int round = 0;; ++round) {
@@ -191,7 +193,6 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     if (wrong.empty() || round == options.repair_rounds) break;
     size_t added = 0;
     std::vector<glm::dvec3> extra;
-    std::vector<uint32_t> near_tet;
     for (uint32_t tc : wrong) {
       const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
       const auto f = outward_face(T, tc);
@@ -213,18 +214,16 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       if (crowded) continue;
       add_vertex(q, uint32_t(curve), cp.value.w);
       extra.push_back(q);
-      near_tet.push_back(tc / 4);
       ++added;
     }
     rep.added_curve_points += added;
     if (added == 0) break;
     timed([&] {
-      if (!insert_points(T, adj, extra, near_tet)) {
-        T = parallel_delaunay(points);
-        adj = build_adjacency(T);
-      }
+      delaunay_mesh->insert(extra);
+      T = delaunay_mesh->tets(&adj);
     });
   }
+  delaunay_mesh.reset();
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
   rep.steps.push_back({"delaunay and extraction", "tetrahedralization", tetrahedralization_seconds});

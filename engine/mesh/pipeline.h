@@ -17,7 +17,7 @@
 // triangles, then the sliver passes; volume_mesh.h).
 // Three stages also report their steps (MeshReport::steps): "fields" = "indicator fields" + "embedding" + "sizing
 // field" (and a little unmeasured work between them); "delaunay and extraction" = "tetrahedralization" (the
-// Delaunay and the tets' adjacency, then the repair's point insertions or fresh tetrahedralizations) + "extraction"
+// Delaunay and the tets' adjacency, then the repair's point insertions into it: DelaunayMesh) + "extraction"
 // (the rest: the point list, tet labels, repair, interface triangles); "volume mesh" = "cutting into pieces" +
 // "TetGen runs" + "merge and seams" (volume_mesh.h) + the output's numbering and statistics.
 #include <array>

@@ -1,6 +1,5 @@
-// mesh::insert_points (Bowyer-Watson) against TetGen: inserting points into a Delaunay tetrahedralization gives the
-// tetrahedralization of all the points (unique in general position), with a consistent adjacency. Then
-// mesh::parallel_delaunay against TetGen and against the Delaunay property itself.
+// mesh::parallel_delaunay against TetGen and against the Delaunay property itself; then mesh::DelaunayMesh::insert:
+// points inserted into a built mesh give the tetrahedralization of all the points (unique in general position).
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -25,58 +24,6 @@ std::vector<std::array<uint32_t, 4>> sorted_tets(const mesh::Tets& T) {
 }
 
 }  // namespace
-
-TEST_CASE("insert_points: TetGen's tets of the first points plus inserted ones equal TetGen's tets of all points") {
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<double> u(0.0, 10.0);
-  // A cube's corners first (the hull), then random points inside: every later point is inside the hull.
-  std::vector<glm::dvec3> points;
-  for (int c = 0; c < 8; ++c) points.push_back(glm::dvec3(c & 1 ? 10.5 : -0.5, c & 2 ? 10.5 : -0.5, c & 4 ? 10.5 : -0.5));
-  for (int i = 0; i < 3000; ++i) points.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
-  const size_t first = 2000;
-  mesh::Tets T = mesh::delaunay(std::vector<glm::dvec3>(points.begin(), points.begin() + first));
-  mesh::Adjacency adj = mesh::build_adjacency(T);
-  // Start the walks far away (tet 0) for half of them, next to the last tet for the rest.
-  std::vector<uint32_t> near(points.size() - first, 0);
-  for (size_t i = 0; i < near.size(); i += 2) near[i] = uint32_t(T.tets.size() - 1);
-  REQUIRE(mesh::insert_points(T, adj, std::vector<glm::dvec3>(points.begin() + first, points.end()), near));
-  CHECK(T.points == points);
-  CHECK(T.neighbours.empty());
-  const mesh::Tets all = mesh::delaunay(points);
-  CHECK(T.tets.size() == all.tets.size());
-  CHECK(sorted_tets(T) == sorted_tets(all));
-  // The adjacency kept up to date equals the one found by sorting the faces.
-  mesh::Tets plain = T;
-  const mesh::Adjacency sorted = mesh::build_adjacency(plain);
-  CHECK(adj.neighbour == sorted.neighbour);
-  // Every tet keeps its orientation sign.
-  size_t flat = 0, flipped = 0;
-  const double sign = mesh::orient3d_exact(T.points[T.tets[0][0]], T.points[T.tets[0][1]], T.points[T.tets[0][2]],
-                                           T.points[T.tets[0][3]]);
-  for (const auto& t : T.tets) {
-    const double o = mesh::orient3d_exact(T.points[t[0]], T.points[t[1]], T.points[t[2]], T.points[t[3]]);
-    flat += o == 0;
-    flipped += o * sign < 0;
-  }
-  CHECK(flat == 0);
-  CHECK(flipped == 0);
-}
-
-TEST_CASE("insert_points: a point outside the hull or on a vertex is refused, and the mesh stays valid") {
-  std::vector<glm::dvec3> points;
-  for (int c = 0; c < 8; ++c) points.push_back(glm::dvec3(c & 1, c & 2 ? 1 : 0, c & 4 ? 1 : 0));
-  points.push_back(glm::dvec3(0.4, 0.45, 0.5));
-  mesh::Tets T = mesh::delaunay(points);
-  mesh::Adjacency adj = mesh::build_adjacency(T);
-  const auto before = sorted_tets(T);
-  CHECK_FALSE(mesh::insert_points(T, adj, {glm::dvec3(2.0, 0.5, 0.5)}, {0}));
-  CHECK(sorted_tets(T) == before);
-  CHECK(T.points.size() == points.size());
-  CHECK_FALSE(mesh::insert_points(T, adj, {glm::dvec3(0.4, 0.45, 0.5)}, {0}));
-  CHECK(sorted_tets(T) == before);
-  CHECK(mesh::insert_points(T, adj, {glm::dvec3(0.6, 0.3, 0.7)}, {0}));
-  CHECK(T.tets.size() > before.size());
-}
 
 // ---- parallel_delaunay (mesh/delaunay.h) ----
 
@@ -253,4 +200,89 @@ TEST_CASE("parallel_delaunay: cospherical and coplanar sets TetGen cannot mesh, 
   std::vector<glm::dvec3> huddle;
   for (const auto& p : points) huddle.push_back(glm::dvec3(1.0) + p * std::ldexp(1.0, -220));
   CHECK_THROWS_AS(mesh::parallel_delaunay(huddle), std::runtime_error);
+}
+
+// ---- DelaunayMesh::insert ----
+
+TEST_CASE("DelaunayMesh::insert: points inserted into a built mesh give TetGen's tets of all the points") {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(0.0, 10.0);
+  std::vector<glm::dvec3> points;
+  for (int i = 0; i < 6000; ++i) points.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
+  // Later points beyond the first ones' hull (it must grow) and exactly on a point already meshed, or on one
+  // inserted in the same call (duplicates: in no tet).
+  const std::vector<glm::dvec3> beyond = {{-1.0, 5.0, 5.0}, {5.0, 11.0, 5.0}, {12.0, 12.0, 12.0}};
+  mesh::DelaunayMesh D(std::vector<glm::dvec3>(points.begin(), points.begin() + 4000));
+  std::vector<glm::dvec3> more(points.begin() + 4000, points.begin() + 5990);
+  more.push_back(points[123]);
+  more.push_back(points[4100]);
+  D.insert(more);
+  D.insert({points.begin() + 5990, points.end()});  // a few, as the repair inserts them
+  D.insert(beyond);
+  CHECK(D.stats().rebuilds == 0);
+  CHECK_FALSE(D.stats().fell_back);
+  CHECK(D.stats().duplicates == 2);
+  mesh::Adjacency adj;
+  const mesh::Tets T = D.tets(&adj);
+  // The adjacency given with the tets is the one found from them.
+  CHECK(adj.neighbour == mesh::build_adjacency(T).neighbour);
+  std::vector<glm::dvec3> given(points.begin(), points.begin() + 5990);
+  given.push_back(points[123]);
+  given.push_back(points[4100]);
+  given.insert(given.end(), points.begin() + 5990, points.end());
+  given.insert(given.end(), beyond.begin(), beyond.end());
+  CHECK(T.points == given);
+  std::vector<glm::dvec3> distinct = points;
+  distinct.insert(distinct.end(), beyond.begin(), beyond.end());
+  const mesh::Tets all = mesh::delaunay(distinct);
+  // The same tets once the duplicates' numbers (5990, 5991) are taken out.
+  auto renumbered = T;
+  size_t duplicate_corners = 0;
+  for (auto& t : renumbered.tets)
+    for (auto& v : t) {
+      duplicate_corners += v == 5990 || v == 5991;
+      if (v > 5991) v -= 2;
+    }
+  CHECK(duplicate_corners == 0);
+  CHECK(sorted_tets(renumbered) == sorted_tets(all));
+  double hull_volume = 0;
+  for (const auto& t : all.tets) hull_volume += signed_volume(all, t);
+  check_delaunay(T, hull_volume);
+  // The same arrays on one thread.
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  mesh::DelaunayMesh alone(std::vector<glm::dvec3>(points.begin(), points.begin() + 4000));
+  alone.insert(more);
+  alone.insert({points.begin() + 5990, points.end()});
+  alone.insert(beyond);
+  const mesh::Tets A = alone.tets();
+  CHECK(A.tets == T.tets);
+  CHECK(A.neighbours == T.neighbours);
+}
+
+TEST_CASE("DelaunayMesh::insert: far points mesh all afresh, bad ones are refused and change nothing") {
+  std::vector<glm::dvec3> points;
+  for (int c = 0; c < 8; ++c) points.push_back(glm::dvec3(c & 1, c & 2 ? 1 : 0, c & 4 ? 1 : 0));
+  points.push_back(glm::dvec3(0.4, 0.45, 0.5));
+  mesh::DelaunayMesh D(points);
+  const auto before = D.tets();
+  CHECK_THROWS_AS(D.insert({glm::dvec3(0.5, 0.5, std::nan(""))}), std::runtime_error);
+  CHECK(D.tets().points == before.points);
+  CHECK(D.tets().tets == before.tets);
+  CHECK(D.stats().rebuilds == 0);
+  // A coordinate of twice the largest so far or more changes the predicates' scale: everything is meshed again.
+  D.insert({glm::dvec3(0.6, 0.3, 0.7), glm::dvec3(3.0, 0.5, 0.5)});
+  CHECK(D.stats().rebuilds == 1);
+  points.push_back(glm::dvec3(0.6, 0.3, 0.7));
+  points.push_back(glm::dvec3(3.0, 0.5, 0.5));
+  const mesh::Tets T = D.tets();
+  CHECK(T.points == points);
+  double hull_volume = 0;
+  const mesh::Tets all = mesh::delaunay(points);
+  for (const auto& t : all.tets) hull_volume += signed_volume(all, t);
+  check_delaunay(T, hull_volume);
+  CHECK(hull_volume == doctest::Approx(1.0 + 2.0 / 3.0));  // the unit cube and a pyramid of height 2 on a face
+  // After the rebuild, insertions go on into the mesh.
+  D.insert({glm::dvec3(0.2, 0.8, 0.3)});
+  CHECK(D.stats().rebuilds == 1);
+  CHECK(D.tets().points.size() == points.size() + 1);
 }
