@@ -207,6 +207,20 @@ class Builder {
     for (const auto& [u, c] : w.border) w.touched.push_back(T[u].n[c] / 4);
   }
 
+  // Whether every corner of w's cavity lies on its boundary (else the insertion would drop a point).
+  bool keeps_corners(const Work& w) const {
+    for (uint32_t u : w.cavity)
+      for (uint32_t x : T[u].v) {
+        bool on = x == kInf;
+        for (size_t k = 0; k < w.border.size() && !on; ++k) {
+          const auto& [t, c] = w.border[k];
+          on = x != T[t].v[c] && std::find(T[t].v.begin(), T[t].v.end(), x) != T[t].v.end();
+        }
+        if (!on) return false;
+      }
+    return true;
+  }
+
   // Replaces w's cavity by the tets joining its point to the cavity's boundary. Only w's reserved tets are read or
   // written; the tets beyond the cavity's count go to slots base, base + 1, ...
   void commit(const Work& w, uint32_t base, Scratch& s) {
@@ -401,7 +415,7 @@ struct DelaunayMesh::Impl {
     size_t idx = 0;
     for (int a = 2; a >= 0; --a)
       idx = idx * cells_per_axis +
-            std::min(cells_per_axis - 1, size_t(std::max(0.0, (p[a] - grid_lo[a]) / cell_size[a])));
+            size_t(std::clamp((p[a] - grid_lo[a]) / cell_size[a], 0.0, double(cells_per_axis - 1)));
     return idx;
   }
 
@@ -420,8 +434,9 @@ struct DelaunayMesh::Impl {
 
   // Meshes `input` from scratch.
   void build();
-  // Inserts order[begin..] into the mesh, the tets it makes appended to *made where given. False where an insertion
-  // failed (B->why says how).
+  // Inserts order[begin..] into the mesh; where made is given, the tets it makes and the tets just outside their
+  // cavities are appended to it, and every cavity must keep its corners. False where an insertion failed (B->why
+  // says how).
   bool run(size_t begin, std::vector<uint32_t>* made = nullptr);
 };
 
@@ -598,6 +613,12 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
             continue;
           }
           b.find_cavity(w, t, s.set);
+          // After an insertion only the tets it made are checked (insert), so here every corner of the cavity must
+          // stay a corner, on its boundary (it always does on a Delaunay tetrahedralization).
+          if (made_tets && !b.keeps_corners(w)) {
+            b.fail("a cavity that holds a vertex");
+            continue;
+          }
           for (uint32_t u : w.touched) {
             std::atomic_ref<uint32_t> res(b.T[u].reserve);
             uint32_t cur = res.load(std::memory_order_relaxed);
@@ -635,9 +656,11 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
           const Work& w = batch[j];
           hint[cell_of(points[w.point])] = w.cavity[0];
           if (w.place != kNone) made_at[w.place] = w.cavity[0];
-          if (made_tets)
+          if (made_tets) {
             for (size_t k = 0; k < w.border.size(); ++k)
               made_tets->push_back(k < w.cavity.size() ? w.cavity[k] : base[j] + uint32_t(k - w.cavity.size()));
+            made_tets->insert(made_tets->end(), w.touched.begin() + ptrdiff_t(w.cavity.size()), w.touched.end());
+          }
         }
       tbb::parallel_for(size_t(0), batch.size(), [&](size_t j) {
         for (uint32_t u : batch[j].touched) store(b.T[u].reserve, kNone);
@@ -726,6 +749,8 @@ void DelaunayMesh::insert(const std::vector<glm::dvec3>& more) {
 
 Tets DelaunayMesh::tets(Adjacency* adjacency) const {
   const Impl& m = *impl_;
+  if (!m.B && m.tetgen.tets.empty())  // a rebuild in insert() threw
+    throw std::logic_error("DelaunayMesh: no tetrahedralization (the last insert failed)");
   if (!m.B) {
     Tets out = m.tetgen;
     out.points = m.input;

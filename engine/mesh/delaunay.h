@@ -67,7 +67,7 @@ class DelaunayMesh {
   // input indices, neighbours filled (4 per tet, the one across the face opposite each corner, -1 on the hull), every
   // tet oriented as TetGen's are (orient3d_exact < 0). The tets are the same in general position (the
   // tetrahedralization is unique), listed in another order. Where adjacency is given, the tets' face adjacency too
-  // (as build_adjacency finds it, without its search).
+  // (as build_adjacency finds it, without its search). Throws std::logic_error where insert's rebuild threw.
   Tets tets(Adjacency* adjacency = nullptr) const;
   const DelaunayStats& stats() const;  // summed over the build and the insertions
 

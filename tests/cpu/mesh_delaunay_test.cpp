@@ -7,6 +7,7 @@
 #include <random>
 
 #include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
@@ -248,15 +249,54 @@ TEST_CASE("DelaunayMesh::insert: points inserted into a built mesh give TetGen's
   double hull_volume = 0;
   for (const auto& t : all.tets) hull_volume += signed_volume(all, t);
   check_delaunay(T, hull_volume);
-  // The same arrays on one thread.
-  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-  mesh::DelaunayMesh alone(std::vector<glm::dvec3>(points.begin(), points.begin() + 4000));
-  alone.insert(more);
-  alone.insert({points.begin() + 5990, points.end()});
-  alone.insert(beyond);
-  const mesh::Tets A = alone.tets();
-  CHECK(A.tets == T.tets);
-  CHECK(A.neighbours == T.neighbours);
+  // The same arrays on one thread and on eight.
+  for (int threads : {1, 8}) {
+    CAPTURE(threads);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    tbb::task_arena arena(threads);
+    mesh::Tets A;
+    arena.execute([&] {
+      mesh::DelaunayMesh again(std::vector<glm::dvec3>(points.begin(), points.begin() + 4000));
+      again.insert(more);
+      again.insert({points.begin() + 5990, points.end()});
+      again.insert(beyond);
+      A = again.tets();
+    });
+    CHECK(A.tets == T.tets);
+    CHECK(A.neighbours == T.neighbours);
+  }
+}
+
+TEST_CASE("DelaunayMesh::insert: a lattice grows in its hull faces' planes; duplicates of hull points stay out") {
+  std::vector<glm::dvec3> lattice;
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) lattice.push_back(glm::dvec3(x, y, z) * 0.25);
+  mesh::DelaunayMesh D(lattice);
+  // Points in the plane z = 0 beyond the hull (coplanar with hull faces), on the line of a hull edge beyond it, cube
+  // centres (cospherical with eight corners each), one below a hull corner, and two lattice points again (hull
+  // corners). All coordinates under 1 (the predicates' scale): no rebuild.
+  const std::vector<glm::dvec3> more = {{0.375, 0.875, 0.0}, {0.5, -0.125, 0.0},   {0.875, 0.0, 0.0},
+                                        {0.125, 0.125, 0.125}, {0.625, 0.375, 0.625}, {0.75, 0.75, -0.125},
+                                        {0.75, 0.0, 0.0},      {0.0, 0.0, 0.0}};
+  D.insert(more);
+  CHECK(D.stats().rebuilds == 0);
+  CHECK(D.stats().duplicates == 2);
+  const mesh::Tets T = D.tets();
+  std::vector<glm::dvec3> all = lattice;
+  all.insert(all.end(), more.begin(), more.end());
+  CHECK(T.points == all);
+  // The hull's volume as TetGen meshes the distinct points; every point but the two duplicates is a corner.
+  const mesh::Tets tetgen = mesh::delaunay(std::vector<glm::dvec3>(all.begin(), all.end() - 2));
+  double hull_volume = 0;
+  for (const auto& t : tetgen.tets) hull_volume += signed_volume(tetgen, t);
+  check_delaunay(T, hull_volume);
+  std::vector<uint8_t> corner(all.size(), 0);
+  for (const auto& t : T.tets)
+    for (uint32_t v : t) corner[v] = 1;
+  CHECK(std::count(corner.begin(), corner.end(), 1) == long(all.size()) - 2);
+  CHECK(corner[all.size() - 1] == 0);
+  CHECK(corner[all.size() - 2] == 0);
 }
 
 TEST_CASE("DelaunayMesh::insert: far points mesh all afresh, bad ones are refused and change nothing") {
@@ -269,10 +309,14 @@ TEST_CASE("DelaunayMesh::insert: far points mesh all afresh, bad ones are refuse
   CHECK(D.tets().points == before.points);
   CHECK(D.tets().tets == before.tets);
   CHECK(D.stats().rebuilds == 0);
-  // A coordinate of twice the largest so far or more changes the predicates' scale: everything is meshed again.
-  D.insert({glm::dvec3(0.6, 0.3, 0.7), glm::dvec3(3.0, 0.5, 0.5)});
+  // A coordinate of twice the largest power of two under the build's largest or more changes the predicates' scale
+  // (1 here): everything is meshed again; under it, the mesh grows.
+  D.insert({glm::dvec3(0.6, 0.3, 0.7), glm::dvec3(1.9990234375, 0.5, 0.5)});
+  CHECK(D.stats().rebuilds == 0);
+  D.insert({glm::dvec3(3.0, 0.5, 0.5)});
   CHECK(D.stats().rebuilds == 1);
   points.push_back(glm::dvec3(0.6, 0.3, 0.7));
+  points.push_back(glm::dvec3(1.9990234375, 0.5, 0.5));
   points.push_back(glm::dvec3(3.0, 0.5, 0.5));
   const mesh::Tets T = D.tets();
   CHECK(T.points == points);
