@@ -150,6 +150,62 @@ TEST_CASE("split_material: refuses a cut across a thin layer") {
   CHECK(cut.separator_on_boundary * 10 < cut.separator_triangles);
 }
 
+TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, within its slack") {
+  // An ellipsoid 1.5 times as long along x holding a flat cavity (a sphere squashed to 0.12 of its size along x) at its
+  // middle: the median plane would cut through the cavity, whose two sides face along x, so the separator would
+  // meet them at a grazing angle. The plane goes beside the cavity instead, still near the middle.
+  Sphere outer = icosphere(10.0, 5, false), cavity = icosphere(3.0, 2, true);
+  for (auto& p : outer.points) p.x *= 1.5;
+  for (auto& p : cavity.points) p.x *= 0.12;
+  std::vector<glm::dvec3> points = outer.points;
+  std::vector<std::array<uint32_t, 3>> boundary = outer.triangles;
+  const auto base = uint32_t(points.size());
+  points.insert(points.end(), cavity.points.begin(), cavity.points.end());
+  for (auto t : cavity.triangles) {
+    for (auto& v : t) v += base;
+    boundary.push_back(t);
+  }
+  const auto split = mesh::split_material(points, boundary, 2, uint32_t(points.size()));
+  INFO(split.refused);
+  REQUIRE(split.refused.empty());
+  REQUIRE(split.planes.size() == 1);
+  CHECK(split.axis == 0);
+  const double plane = split.planes[0];
+  // The boundary triangles whose normals lie within 37 degrees of x (the cavity's sides, the ellipsoid's ends) and
+  // how far the plane keeps from their centroids, in mean edge lengths.
+  double mean_edge = 0, nearest = 1e9;
+  for (const auto& t : boundary)
+    mean_edge += (glm::length(points[t[0]] - points[t[1]]) + glm::length(points[t[1]] - points[t[2]]) +
+                  glm::length(points[t[2]] - points[t[0]])) / (3.0 * double(boundary.size()));
+  size_t cavity_sides = 0;
+  for (const auto& t : boundary) {
+    const glm::dvec3 n = glm::normalize(glm::cross(points[t[1]] - points[t[0]], points[t[2]] - points[t[0]]));
+    if (std::fabs(n.x) < 0.8) continue;
+    const double x = (points[t[0]].x + points[t[1]].x + points[t[2]].x) / 3;
+    cavity_sides += std::fabs(x) < 1.0;
+    nearest = std::min(nearest, std::fabs(x - plane));
+  }
+  MESSAGE("plane at x = " << plane << ", " << nearest / mean_edge << " mean edges from the nearest grazing triangle");
+  REQUIRE(cavity_sides > 250);  // of its 320 triangles
+  CHECK(nearest > 2.5 * mean_edge);
+  CHECK(nearest < 3.5 * mean_edge);  // the nearest such place to the middle
+  CHECK(std::fabs(plane) > 0.36);    // beside the cavity (|x| <= 0.36)
+  // Within the slack (a quarter of a piece's share): each piece keeps 3/8 to 5/8 of the boundary's vertices.
+  size_t left = 0;
+  for (size_t v = 0; v < points.size(); ++v) left += points[v].x < plane;
+  CHECK(left * 8 >= points.size() * 3);
+  CHECK(left * 8 <= points.size() * 5);
+  // And the pieces are sound: closed, filling the material.
+  std::vector<glm::dvec3> all = points;
+  all.insert(all.end(), split.points.begin(), split.points.end());
+  double sum = 0;
+  for (const auto& piece : split.pieces) {
+    CHECK(mesh::odd_edges(piece) == 0);
+    sum += enclosed_volume(all, piece);
+  }
+  CHECK(sum == doctest::Approx(enclosed_volume(points, boundary)).epsilon(1e-12));
+}
+
 TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same volumes, conforming, slivers fixed") {
   // Material 1 between spheres of radius 10 and 4, material 2 inside; the inner sphere is a cavity that the pieces
   // of material 1 must carve out with material 2's seed. Jittered spheres leave boundary triangles that are no

@@ -74,8 +74,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_option("--volume-runs", m.volume.runs,
                   "Volume mesh: TetGen runs to aim at in parallel, materials with large boundaries cut into pieces "
-                  "by planes (0: one per thread, see --threads; 1: one run per material). More runs are faster on many cores, "
-                  "and a few more slivers may stay where pieces meet; materials whose cut would cross thin layers stay whole")
+                  "by planes (0: one per thread, see --threads; 1: one run per material, the same mesh on every machine). More runs "
+                  "are faster on many cores, and a few more slivers may stay where pieces meet; materials whose cut would cross "
+                  "thin layers stay whole")
       ->capture_default_str();
   sub->add_option("--junction-protection", m.junction_protection,
                   "Leave out interface particles closer than this x h to a triple curve or quadruple point of their "
