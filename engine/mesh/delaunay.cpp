@@ -95,10 +95,12 @@ class Builder {
   explicit Builder(const std::vector<glm::dvec3>& points) : P_(points) {}
 
   const std::vector<glm::dvec3>& P_;
-  glm::dvec3 mid{0}, size{0};  // the points' bounding box (size as init_exact_predicates widened it)
-  void set_box(const glm::dvec3& lo, const glm::dvec3& widened) {
-    mid = lo + 0.5 * widened;
-    size = widened;
+  FilteredPredicates pred;     // with the bounding box's static filters
+  glm::dvec3 mid{0}, size{0};  // the points' bounding box (size as the predicates widened it)
+  void set_box(const glm::dvec3& lo, const glm::dvec3& hi) {
+    pred = FilteredPredicates(hi - lo);
+    size = pred.extent();
+    mid = lo + 0.5 * size;
   }
   struct Tet {                   // one record per tet: a cavity's tests touch one place in memory
     std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
@@ -122,22 +124,22 @@ class Builder {
   double orient_with(const std::array<uint32_t, 4>& v, int c, const glm::dvec3& q) const {
     const glm::dvec3* p[4];
     for (int k = 0; k < 4; ++k) p[k] = k == c ? &q : &P_[v[size_t(k)]];
-    return orient3d_exact(*p[0], *p[1], *p[2], *p[3]);
+    return pred.orient3d(*p[0], *p[1], *p[2], *p[3]);
   }
   double orient(const std::array<uint32_t, 4>& v) const {
-    return orient3d_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]]);
+    return pred.orient3d(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]]);
   }
   // Finite tets are positively oriented; an infinite tet is positive with its infinite corner at any point strictly
   // beyond its finite face.
   bool conflict(uint32_t t, const glm::dvec3& q) const {
     const auto& v = T[t].v;
     const int k = inf_corner(v);
-    if (k < 0) return insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], q) > 0;
+    if (k < 0) return pred.insphere(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], q) > 0;
     const double o = orient_with(v, k, q);
     if (o != 0) return o > 0;
     // In the hull face's plane: inside its circumcircle exactly when inside the finite neighbour's circumsphere.
     const auto& w = T[T[t].n[size_t(k)] / 4].v;
-    return insphere_exact(P_[w[0]], P_[w[1]], P_[w[2]], P_[w[3]], q) > 0;
+    return pred.insphere(P_[w[0]], P_[w[1]], P_[w[2]], P_[w[3]], q) > 0;
   }
   // Three points are collinear exactly when every point is coplanar with them. Probes off a along each axis,
   // towards the box's middle by half its size (floating-point values, so exactly the points tested, and within the
@@ -146,7 +148,7 @@ class Builder {
     for (int axis = 0; axis < 3; ++axis) {
       glm::dvec3 probe = a;
       probe[axis] += a[axis] > mid[axis] ? -0.5 * size[axis] : 0.5 * size[axis];
-      if (orient3d_exact(a, b, c, probe) != 0) return false;
+      if (pred.orient3d(a, b, c, probe) != 0) return false;
     }
     return true;
   }
@@ -345,7 +347,8 @@ class Builder {
         if (x != c && std::find(u.begin(), u.end(), v[x]) == u.end()) return "neighbours that share no face";
       if (k < 0) {
         if (c == 0 && !(orient(v) > 0)) return "a tet not positively oriented";
-        if (apex != kInf && (both_sides || n / 4 > t) && insphere_exact(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], P_[apex]) > 0)
+        if (apex != kInf && (both_sides || n / 4 > t) &&
+            pred.insphere(P_[v[0]], P_[v[1]], P_[v[2]], P_[v[3]], P_[apex]) > 0)
           return "a face that is not locally Delaunay";
       } else if (c == uint32_t(k)) {
         if (apex == kInf || !(orient_with(v, k, P_[apex]) < 0)) return "a hull face that faces inwards";
@@ -408,9 +411,9 @@ struct DelaunayMesh::Impl {
       if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
         throw std::runtime_error("Delaunay tetrahedralization: a point with a coordinate that is not finite");
   }
-  // The predicates' filters (process-wide) for the current box; where it is flat, widened (the collinearity probes
-  // go by the widened size).
-  void set_predicates() { B->set_box(lo, init_exact_predicates(hi - lo)); }
+  // The predicates' static filters for the current box; where it is flat, widened (the collinearity probes go by the
+  // widened size).
+  void set_predicates() { B->set_box(lo, hi); }
   size_t cell_of(const glm::dvec3& p) const {
     size_t idx = 0;
     for (int a = 2; a >= 0; --a)
@@ -511,7 +514,7 @@ void DelaunayMesh::Impl::build() {
       const glm::dvec3& p = points[order[i]];
       if (found == 1 ? p != points[first[0]]
           : found == 2 ? !B->collinear(points[first[0]], points[first[1]], p)
-                       : orient3d_exact(points[first[0]], points[first[1]], points[first[2]], p) != 0)
+                       : B->pred.orient3d(points[first[0]], points[first[1]], points[first[2]], p) != 0)
         take(i);
     }
     if (found < 4)
@@ -716,7 +719,7 @@ void DelaunayMesh::insert(const std::vector<glm::dvec3>& more) {
     m.lo = glm::min(m.lo, m.points.back());
     m.hi = glm::max(m.hi, m.points.back());
   }
-  m.set_predicates();  // the box may have grown; other code may have set the process-wide predicates since
+  m.set_predicates();  // the box may have grown
   // Exact duplicates among the new points: only the first goes in (the walk finds those of meshed points).
   std::vector<uint32_t> fresh(more.size());
   std::iota(fresh.begin(), fresh.end(), uint32_t(old));

@@ -17,8 +17,8 @@
 // infinite tet, and one in the face's plane when it lies strictly inside the face's circumcircle. With strict
 // conflicts every boundary face of a cavity is strictly visible from its point, so the new finite tets are never
 // flat, even for cospherical points (a lattice): the result is then one of the Delaunay tetrahedralizations.
-// Exact predicates (TetGen's, Shewchuk's) throughout, on the points scaled by a power of two to coordinates under 2
-// (exact; far from 1 their products overflow or underflow).
+// Exact predicates (TetGen's, Shewchuk's, with static filters for the points' bounding box) throughout, on the points
+// scaled by a power of two to coordinates under 2 (exact; far from 1 their products overflow or underflow).
 //
 // After the build, and after each later insertion of points, every face is checked: finite tets positively
 // oriented, neighbours sharing the face, each inner face locally Delaunay (the apex across it not strictly inside
@@ -48,8 +48,8 @@ struct DelaunayStats {
 // triple curves to a mesh of millions; the same rounds insert them). Throws std::runtime_error with fewer than 4
 // points, a coordinate that is not finite, all points on one plane, too many points (150 M: faces are named in 32
 // bits), or points too close together for the predicates (a spread under 2^-200 of their largest coordinate).
-// Uses the TBB threads the caller allows (tbb::global_control). Sets the process-wide exact predicates
-// (init_exact_predicates) when it builds and at each insert: not to be run beside other users of them.
+// Uses the TBB threads the caller allows (tbb::global_control); instances may be built and used on several threads at
+// once (the predicates' filters are each instance's own: FilteredPredicates in tetgen.h).
 class DelaunayMesh {
  public:
   explicit DelaunayMesh(const std::vector<glm::dvec3>& points);

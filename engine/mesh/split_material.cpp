@@ -9,7 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "mesh/child_process.h"
+#include "mesh/delaunay.h"
 #include "mesh/extract.h"
 #include "mesh/face_key.h"
 #include "mesh/quality.h"
@@ -34,7 +34,7 @@ constexpr double kSpacing = 2.0;
 constexpr double kThinShare = 0.3;
 // Plane placement (below): a boundary triangle grazes a plane when its normal is within acos(kGrazeCos) (37 degrees)
 // of the plane's axis and its centroid within kGrazeBand mean edge lengths of the plane; a plane may move by
-// kPlaneSlack of a piece's share of the boundary vertices to graze less.
+// kPlaneSlack of a piece's share of the boundary vertices (a whole number of quarters) to graze less.
 constexpr double kGrazeCos = 0.8;
 constexpr double kGrazeBand = 3.0;
 constexpr double kPlaneSlack = 0.25;
@@ -203,8 +203,9 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // degrees, nearly all lay within about an edge length of a plane, at boundary normals within 30 degrees of its
   // axis). Grazing is the area of the boundary triangles whose normals lie within acos(kGrazeCos) of the axis with
   // their centroids within kGrazeBand mean edge lengths of the plane; a plane goes to the least grazing place among
-  // the vertex quantiles j/pieces +- kPlaneSlack/pieces (its piece's boundary share changes at most that much), the
-  // quantile's own place where nothing grazes there.
+  // the vertex quantiles j/pieces +- kPlaneSlack/pieces, the nearest to its quantile (the quantile's own place where
+  // nothing grazes there), below every place the next plane can take. A piece between two moved planes keeps
+  // between 1 - 2 kPlaneSlack and 1 + 2 kPlaneSlack of its share of the vertices.
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   std::sort(along.begin(), along.end());
@@ -232,10 +233,11 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   };
   // Each candidate halfway between a vertex coordinate and the next larger one: no vertex lies on a plane, nor does
   // a lattice point land on a boundary triangle lying in one.
+  const size_t slack = size_t(std::lround(4.0 * kPlaneSlack));  // in quarters of a piece's share
+  auto window_start = [&](int j) { return n_surface * (4 * size_t(j) - slack) / (4 * size_t(pieces)); };
   for (int j = 1; j < pieces; ++j) {
-    const double quantile = double(j) / double(pieces), slack = kPlaneSlack / double(pieces);
-    const size_t q = size_t(double(n_surface) * quantile);
-    const size_t from = size_t(double(n_surface) * (quantile - slack)), to = size_t(double(n_surface) * (quantile + slack));
+    const size_t q = n_surface * size_t(j) / size_t(pieces);
+    const size_t from = window_start(j), to = n_surface * (4 * size_t(j) + slack) / (4 * size_t(pieces));
     auto candidate = [&](size_t i) -> std::optional<double> {
       const auto next = std::upper_bound(along.begin(), along.end(), along[i]);
       if (next == along.end()) return std::nullopt;
@@ -243,11 +245,16 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     };
     const std::optional<double> middle = candidate(q);
     if (!middle) return refuse("too few distinct vertex coordinates along the cut axis");
+    // The next plane's places all lie above the first vertex of its window; this one's stay at or below it.
+    const double ceiling = j + 1 < pieces ? along[window_start(j + 1)] : std::numeric_limits<double>::infinity();
+    const double floor = out.planes.empty() ? -std::numeric_limits<double>::infinity() : out.planes.back();
     double best = *middle, best_graze = grazed(best);
-    for (size_t i = from; i <= to && i < n_surface && grazed(*middle) > 0; ++i) {
+    const bool move = best_graze > 0;
+    for (size_t i = from; move && i <= to && i < n_surface; ++i) {
       if (i > from && along[i] == along[i - 1]) continue;
       const std::optional<double> c = candidate(i);
-      if (!c) break;
+      if (!c || *c > ceiling) break;
+      if (*c <= floor) continue;
       const double g = grazed(*c);
       if (g < best_graze || (g == best_graze && std::fabs(*c - *middle) < std::fabs(best - *middle))) {
         best = *c;
@@ -292,19 +299,9 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     D_points.insert(D_points.end(), lattice.begin(), lattice.end());
   }
 
-  // In a child process: TetGen's exact predicates keep their error bounds in process-wide variables that each run
-  // sets from its own points, and the materials are cut in parallel.
-  Tets D;
-  {
-    const std::string bytes = run_in_child("Delaunay tetrahedralization for the cut", [&] {
-      ByteWriter w;
-      put_tets(w, delaunay(D_points));
-      return w.take();
-    });
-    ByteReader in(bytes);
-    if (!get_tets(in, D) || !in.done()) return refuse("truncated Delaunay tetrahedralization from the child process");
-  }
-  const Adjacency adj = build_adjacency(D);
+  // On every core, beside the other materials' cuts (each Delaunay holds its own predicates' filters).
+  Adjacency adj;
+  const Tets D = DelaunayMesh(D_points).tets(&adj);
   const size_t n_tets = D.tets.size();
 
   // Walls: the tet faces that are boundary triangles, and on which side of each the material lies.

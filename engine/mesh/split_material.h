@@ -3,8 +3,8 @@
 // of 16 cores busy on the paper-size head, its largest run 79 s).
 //
 // The pieces lie between cut planes across the material's longest extent, each plane near a quantile of the
-// boundary's vertices but moved (by up to a quarter of a piece's share of them) to where the fewest boundary
-// triangles run nearly parallel to it close by: a separator that meets the boundary at a grazing angle leaves
+// boundary's vertices but moved (by up to a quarter of a piece's share of them) to where the least area of boundary
+// triangles runs nearly parallel to it close by: a separator that meets the boundary at a grazing angle leaves
 // slivers in the wedge between them that no pass mends (the paper-size head in 16 pieces: 83 tets under 12 degrees,
 // from 8.0, with the planes at the quantiles; 3, from 11.0, with the planes moved; 0 in one run per material).
 // Each piece is bounded by the material's
@@ -25,7 +25,9 @@
 // crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed; and where
 // it would make a poor mesh: a plane's separator of which more than 30% of the triangles join boundary vertices only
 // (the plane crosses thin layers, where both pieces must keep triangles spanning the layer and the slivers along them
-// outlast every sliver pass). It throws where TetGen cannot tetrahedralize the points at all (fewer than 4).
+// outlast every sliver pass). It throws where the points cannot be tetrahedralized at all (fewer than 4, or flat).
+// The cut's Delaunay tetrahedralization runs on every core (delaunay.h), in this process: materials may be cut on
+// several threads at once.
 //
 // Inputs:  points     every point, in the caller's numbering (the boundary's vertices among them)
 //          boundary   the material's interface triangles, oriented with their normals out of the material

@@ -43,9 +43,17 @@ Tets read_output(const tetgenio& out) {
   return t;
 }
 
+// TetGen's predicates without its static filters (exact for any points: tetgen.h), set before main and again
+// after each TetGen run in this process.
+void unfiltered_predicates() { exactinit(0, 0, 1, 1.0, 1.0, 1.0); }
+[[maybe_unused]] const bool predicates_set = (unfiltered_predicates(), true);
+
 void run(const std::string& switches, tetgenio& in, tetgenio& out) {
   std::vector<char> sw(switches.begin(), switches.end());
   sw.push_back('\0');
+  struct Restore {
+    ~Restore() { unfiltered_predicates(); }
+  } restore;  // TetGen set the predicates for its own points
   try {
     tetrahedralize(sw.data(), &in, &out);
   } catch (int code) {
@@ -90,13 +98,42 @@ Tets delaunay(const std::vector<glm::dvec3>& points) {
   return t;
 }
 
-glm::dvec3 init_exact_predicates(const glm::dvec3& extent) {
-  // The static filters' error bounds grow with the extent; TetGen asserts each is positive (points on a coordinate
-  // plane), and a larger one is only more careful.
+FilteredPredicates::FilteredPredicates(const glm::dvec3& extent) {
   const double largest = std::max({extent.x, extent.y, extent.z, 1e-300});
-  const glm::dvec3 e = glm::max(extent, glm::dvec3(largest * 1e-3));
-  exactinit(0, 0, 0, e.x, e.y, e.z);
-  return e;
+  extent_ = glm::max(extent, glm::dvec3(largest * 1e-3));
+  // TetGen's static filters (exactinit): error bounds of the floating-point determinants below for coordinate
+  // differences up to the extent, the largest axis taken twice more for insphere's lifted terms.
+  const double product = extent_.x * extent_.y * extent_.z, top = std::max({extent_.x, extent_.y, extent_.z});
+  orient_bound_ = 5.1107127829973299e-15 * product;
+  insphere_bound_ = 1.2466136531027298e-13 * product * top * top;
+}
+
+double FilteredPredicates::orient3d(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
+                                    const glm::dvec3& d) const {
+  // The determinant exactly as TetGen's orient3d evaluates it, which its bound is for.
+  const double adx = a.x - d.x, bdx = b.x - d.x, cdx = c.x - d.x;
+  const double ady = a.y - d.y, bdy = b.y - d.y, cdy = c.y - d.y;
+  const double adz = a.z - d.z, bdz = b.z - d.z, cdz = c.z - d.z;
+  const double det = adz * (bdx * cdy - cdx * bdy) + bdz * (cdx * ady - adx * cdy) + cdz * (adx * bdy - bdx * ady);
+  if (det > orient_bound_ || det < -orient_bound_) return det;
+  return orient3d_exact(a, b, c, d);
+}
+
+double FilteredPredicates::insphere(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
+                                    const glm::dvec3& d, const glm::dvec3& e) const {
+  // The determinant exactly as TetGen's insphere evaluates it (Shewchuk's), which its bound is for.
+  const double aex = a.x - e.x, bex = b.x - e.x, cex = c.x - e.x, dex = d.x - e.x;
+  const double aey = a.y - e.y, bey = b.y - e.y, cey = c.y - e.y, dey = d.y - e.y;
+  const double aez = a.z - e.z, bez = b.z - e.z, cez = c.z - e.z, dez = d.z - e.z;
+  const double ab = aex * bey - bex * aey, bc = bex * cey - cex * bey, cd = cex * dey - dex * cey;
+  const double da = dex * aey - aex * dey, ac = aex * cey - cex * aey, bd = bex * dey - dex * bey;
+  const double abc = aez * bc - bez * ac + cez * ab, bcd = bez * cd - cez * bd + dez * bc;
+  const double cda = cez * da + dez * ac + aez * cd, dab = dez * ab + aez * bd + bez * da;
+  const double alift = aex * aex + aey * aey + aez * aez, blift = bex * bex + bey * bey + bez * bez;
+  const double clift = cex * cex + cey * cey + cez * cez, dlift = dex * dex + dey * dey + dez * dez;
+  const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+  if (det > insphere_bound_ || det < -insphere_bound_) return det;
+  return insphere_exact(a, b, c, d, e);
 }
 
 std::array<glm::dvec3, 2> bounding_box(const std::vector<glm::dvec3>& points) {

@@ -25,17 +25,34 @@ struct Tets {
 // input points. parallel_delaunay (delaunay.h) does the same on every core.
 Tets delaunay(const std::vector<glm::dvec3>& points);
 
-// TetGen's exact predicates (Shewchuk's): orient3d's sign tells on which side of plane abc d lies (0: on it);
-// insphere is positive where e lies inside the sphere through abcd when orient3d(a, b, c, d) is positive, negative
-// inside when it is negative. extent: per axis, the largest difference between coordinates of the points tested (the
-// size of their bounding box; TetGen sets its own so), for the static filters; the predicates are process-wide.
-// Returns the extent set: no axis under a thousandth of the largest (TetGen asserts each is positive).
-glm::dvec3 init_exact_predicates(const glm::dvec3& extent);
-// The corners of the points' bounding box (lo, hi); points must not be empty.
-std::array<glm::dvec3, 2> bounding_box(const std::vector<glm::dvec3>& points);
+// TetGen's exact predicates (Shewchuk's adaptive ones): orient3d's sign tells on which side of plane abc d lies (0: on
+// it); insphere is positive where e lies inside the sphere through abcd when orient3d(a, b, c, d) is positive,
+// negative inside when it is negative. Exact for any finite points and safe on any thread: TetGen keeps its
+// predicates' settings in process-wide variables, which this file sets once, without TetGen's static filters (they
+// hold one point set's bounding box), and sets back after each TetGen run in this process (TetGen sets them for its
+// own points; such runs happen only in child processes and tests, never beside other users).
 double orient3d_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 double insphere_exact(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
                       const glm::dvec3& e);
+// The same, first answered in floating point where TetGen's static filters (its error bounds for points whose
+// coordinates differ by at most `extent` per axis: their bounding box's size) allow, as TetGen answers its own
+// tests; the rest exactly as above. Each instance holds its own bounds: instances for different points may be used
+// at once. The extent is widened so that no axis is under a thousandth of the largest (a larger bound is only more
+// careful).
+class FilteredPredicates {
+ public:
+  explicit FilteredPredicates(const glm::dvec3& extent = glm::dvec3(1.0));
+  const glm::dvec3& extent() const { return extent_; }
+  double orient3d(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) const;
+  double insphere(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
+                  const glm::dvec3& e) const;
+
+ private:
+  glm::dvec3 extent_;
+  double orient_bound_, insphere_bound_;
+};
+// The corners of the points' bounding box (lo, hi); points must not be empty.
+std::array<glm::dvec3, 2> bounding_box(const std::vector<glm::dvec3>& points);
 
 struct QualityOptions {
   double max_radius_edge = 1.5;  // TetGen -q ratio
@@ -49,6 +66,7 @@ struct QualityOptions {
   // 16 pieces: 3 tets under 12 degrees, from 11.0, against none whole), so many-core hosts should ask for them.
   size_t runs = 1;
   size_t min_piece_triangles = 20'000;  // a material is cut only into pieces of at least this many boundary triangles
+                                        // on average (a piece between two moved planes may keep half its share)
 };
 
 struct Region {

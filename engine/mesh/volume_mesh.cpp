@@ -161,7 +161,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       if (m < job_of.size() && job_of[m] >= 0) jobs[size_t(job_of[m])].triangles.push_back(triangles[i]);
 
   // Large materials are cut into pieces so that the runs fill the cores: each material gets runs in proportion to
-  // its boundary, as long as every piece keeps options.min_piece_triangles.
+  // its boundary, as long as the pieces keep options.min_piece_triangles on average (split_material.h: a piece may
+  // keep half its share).
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };

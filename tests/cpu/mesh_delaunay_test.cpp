@@ -39,8 +39,6 @@ double signed_volume(const mesh::Tets& T, const std::array<uint32_t, 4>& t) {
 // neighbours symmetric and sharing the face, every inner face locally Delaunay (exact), and the volume (where given).
 void check_delaunay(const mesh::Tets& T, double hull_volume) {
   REQUIRE(T.neighbours.size() == T.tets.size() * 4);
-  const auto [lo, hi] = mesh::bounding_box(T.points);  // the predicates are process-wide: set them for these points
-  mesh::init_exact_predicates(hi - lo);
   size_t flat_or_flipped = 0, asymmetric = 0, not_delaunay = 0;
   double volume = 0;
   for (size_t t = 0; t < T.tets.size(); ++t) {
@@ -329,4 +327,39 @@ TEST_CASE("DelaunayMesh::insert: far points mesh all afresh, bad ones are refuse
   D.insert({glm::dvec3(0.2, 0.8, 0.3)});
   CHECK(D.stats().rebuilds == 1);
   CHECK(D.tets().points.size() == points.size() + 1);
+}
+
+// ---- FilteredPredicates (tetgen.h) ----
+
+TEST_CASE("FilteredPredicates: the floating-point answers it gives agree in sign with the exact predicates") {
+  // Random points (mostly answered by the filters) and points on a small integer grid, some nudged by an ulp
+  // (coplanar and cospherical sets, answered exactly), in a box of extent 8 around (100, -50, 3).
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 8.0);
+  std::uniform_int_distribution<int> grid(0, 4), pick(0, 3);
+  const glm::dvec3 origin(100.0, -50.0, 3.0);
+  const mesh::FilteredPredicates pred(glm::dvec3(8.0));
+  auto point = [&] {
+    if (pick(rng) == 0) return origin + glm::dvec3(u(rng), u(rng), u(rng));
+    glm::dvec3 p = origin + 2.0 * glm::dvec3(grid(rng), grid(rng), grid(rng));
+    if (pick(rng) == 0) p.x = std::nextafter(p.x, 1e9);
+    return p;
+  };
+  size_t orient_zero = 0, insphere_zero = 0, orient_wrong = 0, insphere_wrong = 0;
+  auto sign = [](double x) { return (x > 0) - (x < 0); };
+  for (int i = 0; i < 200000; ++i) {
+    const glm::dvec3 a = point(), b = point(), c = point(), d = point(), e = point();
+    const double o = mesh::orient3d_exact(a, b, c, d), s = mesh::insphere_exact(a, b, c, d, e);
+    orient_zero += o == 0;
+    insphere_zero += s == 0;
+    orient_wrong += sign(pred.orient3d(a, b, c, d)) != sign(o);
+    insphere_wrong += sign(pred.insphere(a, b, c, d, e)) != sign(s);
+  }
+  MESSAGE(orient_zero << " coplanar and " << insphere_zero << " cospherical sets of 200,000");
+  CHECK(orient_zero > 1000);  // the exact paths ran
+  CHECK(insphere_zero > 1000);
+  CHECK(orient_wrong == 0);
+  CHECK(insphere_wrong == 0);
+  // The extent is widened where an axis is flat.
+  CHECK(mesh::FilteredPredicates(glm::dvec3(4.0, 0.0, 2.0)).extent() == glm::dvec3(4.0, 0.004, 2.0));
 }

@@ -150,60 +150,101 @@ TEST_CASE("split_material: refuses a cut across a thin layer") {
   CHECK(cut.separator_on_boundary * 10 < cut.separator_triangles);
 }
 
-TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, within its slack") {
-  // An ellipsoid 1.5 times as long along x holding a flat cavity (a sphere squashed to 0.12 of its size along x) at its
-  // middle: the median plane would cut through the cavity, whose two sides face along x, so the separator would
-  // meet them at a grazing angle. The plane goes beside the cavity instead, still near the middle.
-  Sphere outer = icosphere(10.0, 5, false), cavity = icosphere(3.0, 2, true);
-  for (auto& p : outer.points) p.x *= 1.5;
-  for (auto& p : cavity.points) p.x *= 0.12;
-  std::vector<glm::dvec3> points = outer.points;
-  std::vector<std::array<uint32_t, 3>> boundary = outer.triangles;
-  const auto base = uint32_t(points.size());
-  points.insert(points.end(), cavity.points.begin(), cavity.points.end());
-  for (auto t : cavity.triangles) {
-    for (auto& v : t) v += base;
-    boundary.push_back(t);
+namespace {
+
+// An ellipsoid 1.5 times as long along x as across, holding flat cavities (spheres of radius 3 squashed to 0.12 of
+// their size along x, |x - centre| <= 0.36) at the given x: their two sides face along x, so a plane through one
+// would meet them at a grazing angle.
+Sphere ellipsoid_with_flat_cavities(const std::vector<double>& centres) {
+  Sphere out = icosphere(10.0, 5, false);
+  for (auto& p : out.points) p.x *= 1.5;
+  for (double x : centres) {
+    Sphere cavity = icosphere(3.0, 2, true);
+    const auto base = uint32_t(out.points.size());
+    for (auto p : cavity.points) out.points.push_back(glm::dvec3(p.x * 0.12 + x, p.y, p.z));
+    for (auto t : cavity.triangles) out.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
   }
-  const auto split = mesh::split_material(points, boundary, 2, uint32_t(points.size()));
-  INFO(split.refused);
-  REQUIRE(split.refused.empty());
-  REQUIRE(split.planes.size() == 1);
-  CHECK(split.axis == 0);
-  const double plane = split.planes[0];
-  // The boundary triangles whose normals lie within 37 degrees of x (the cavity's sides, the ellipsoid's ends) and
-  // how far the plane keeps from their centroids, in mean edge lengths.
-  double mean_edge = 0, nearest = 1e9;
-  for (const auto& t : boundary)
-    mean_edge += (glm::length(points[t[0]] - points[t[1]]) + glm::length(points[t[1]] - points[t[2]]) +
-                  glm::length(points[t[2]] - points[t[0]])) / (3.0 * double(boundary.size()));
-  size_t cavity_sides = 0;
-  for (const auto& t : boundary) {
-    const glm::dvec3 n = glm::normalize(glm::cross(points[t[1]] - points[t[0]], points[t[2]] - points[t[0]]));
-    if (std::fabs(n.x) < 0.8) continue;
-    const double x = (points[t[0]].x + points[t[1]].x + points[t[2]].x) / 3;
-    cavity_sides += std::fabs(x) < 1.0;
-    nearest = std::min(nearest, std::fabs(x - plane));
+  return out;
+}
+
+// How far plane c keeps from the centroids of the triangles whose normals lie within 37 degrees of x.
+double grazing_distance(const Sphere& s, double c) {
+  double nearest = 1e9;
+  for (const auto& t : s.triangles) {
+    const glm::dvec3 n = glm::normalize(glm::cross(s.points[t[1]] - s.points[t[0]], s.points[t[2]] - s.points[t[0]]));
+    if (std::fabs(n.x) >= 0.8) nearest = std::min(nearest, std::fabs((s.points[t[0]].x + s.points[t[1]].x + s.points[t[2]].x) / 3 - c));
   }
-  MESSAGE("plane at x = " << plane << ", " << nearest / mean_edge << " mean edges from the nearest grazing triangle");
-  REQUIRE(cavity_sides > 250);  // of its 320 triangles
-  CHECK(nearest > 2.5 * mean_edge);
-  CHECK(nearest < 3.5 * mean_edge);  // the nearest such place to the middle
-  CHECK(std::fabs(plane) > 0.36);    // beside the cavity (|x| <= 0.36)
-  // Within the slack (a quarter of a piece's share): each piece keeps 3/8 to 5/8 of the boundary's vertices.
-  size_t left = 0;
-  for (size_t v = 0; v < points.size(); ++v) left += points[v].x < plane;
-  CHECK(left * 8 >= points.size() * 3);
-  CHECK(left * 8 <= points.size() * 5);
-  // And the pieces are sound: closed, filling the material.
-  std::vector<glm::dvec3> all = points;
+  return nearest;
+}
+
+double mean_edge(const Sphere& s) {
+  double sum = 0;
+  for (const auto& t : s.triangles)
+    sum += glm::length(s.points[t[0]] - s.points[t[1]]) + glm::length(s.points[t[1]] - s.points[t[2]]) +
+           glm::length(s.points[t[2]] - s.points[t[0]]);
+  return sum / (3.0 * double(s.triangles.size()));
+}
+
+// The pieces close and fill the material.
+void check_pieces(const Sphere& s, const mesh::MaterialSplit& split) {
+  std::vector<glm::dvec3> all = s.points;
   all.insert(all.end(), split.points.begin(), split.points.end());
   double sum = 0;
   for (const auto& piece : split.pieces) {
     CHECK(mesh::odd_edges(piece) == 0);
     sum += enclosed_volume(all, piece);
   }
-  CHECK(sum == doctest::Approx(enclosed_volume(points, boundary)).epsilon(1e-12));
+  CHECK(sum == doctest::Approx(enclosed_volume(s.points, s.triangles)).epsilon(1e-12));
+}
+
+}  // namespace
+
+TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, to the nearer side, within its slack") {
+  // A cavity a little off the middle (either way): the median plane would cut through it; it goes to the nearer
+  // place beside it where nothing grazes (3 mean edge lengths from the cavity's sides), so the side depends on the
+  // shift.
+  for (double shift : {0.3, -0.3}) {
+    CAPTURE(shift);
+    const Sphere s = ellipsoid_with_flat_cavities({shift});
+    const auto split = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()));
+    INFO(split.refused);
+    REQUIRE(split.refused.empty());
+    REQUIRE(split.planes.size() == 1);
+    CHECK(split.axis == 0);
+    const double plane = split.planes[0], edge = mean_edge(s), nearest = grazing_distance(s, plane);
+    MESSAGE("plane at x = " << plane << ", " << nearest / edge << " mean edges from the nearest grazing triangle");
+    CHECK(nearest > 2.5 * edge);
+    CHECK(nearest < 3.5 * edge);          // the nearest such place to the middle
+    CHECK(plane * shift < 0);             // on the side away from the cavity's centre (nearer the median)
+    CHECK(std::fabs(plane - shift) > 0.36);
+    // Within the slack (a quarter of a piece's share): each piece keeps 3/8-5/8 of the boundary's vertices.
+    size_t left = 0;
+    for (const auto& p : s.points) left += p.x < plane;
+    CHECK(left * 8 >= s.points.size() * 3);
+    CHECK(left * 8 <= s.points.size() * 5);
+    check_pieces(s, split);
+  }
+}
+
+TEST_CASE("split_material: in three pieces both planes move off their cavities, in order, each within its window") {
+  // Cavities at about the thirds of the vertices (the ellipsoid's vertices spread evenly along x over [-15, 15]).
+  const Sphere s = ellipsoid_with_flat_cavities({-5.0, 5.2});
+  const auto split = mesh::split_material(s.points, s.triangles, 3, uint32_t(s.points.size()));
+  INFO(split.refused);
+  REQUIRE(split.refused.empty());
+  REQUIRE(split.planes.size() == 2);
+  CHECK(split.planes[0] < split.planes[1]);
+  const double edge = mean_edge(s);
+  for (int j = 0; j < 2; ++j) {
+    CAPTURE(j);
+    CHECK(grazing_distance(s, split.planes[size_t(j)]) > 2.5 * edge);
+    size_t below = 0;
+    for (const auto& p : s.points) below += p.x < split.planes[size_t(j)];
+    // Plane j + 1 at the vertex quantile (j + 1) / 3, give or take a quarter of a piece's share (1/12).
+    CHECK(below * 12 >= s.points.size() * size_t(4 * (j + 1) - 1));
+    CHECK(below * 12 <= s.points.size() * size_t(4 * (j + 1) + 1));
+  }
+  check_pieces(s, split);
 }
 
 TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same volumes, conforming, slivers fixed") {
