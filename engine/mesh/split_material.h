@@ -6,7 +6,7 @@
 // boundary's vertices but moved (by up to a quarter of a piece's share of them) to where the least area of boundary
 // triangles runs nearly parallel to it close by: a separator that meets the boundary at a grazing angle leaves
 // slivers in the wedge between them that no pass mends (the paper-size head in 16 pieces: 83 tets under 12 degrees,
-// from 8.0, with the planes at the quantiles; 3, from 11.0, with the planes moved; 0 in one run per material).
+// from 8.0, with the planes at the quantiles; 2-3, from 11.0, with the planes moved; 0 in one run per material).
 // Each piece is bounded by the material's
 // interface triangles on its side and by a separator surface that the pieces on either side of a plane both keep as
 // it is (TetGen -Y), so their tets meet face to face and no point is added on it. The separator comes from one

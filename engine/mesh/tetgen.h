@@ -63,7 +63,7 @@ struct QualityOptions {
   // (split_material.h) so that the runs fill the cores; 0: the thread limit (tbb::global_control, --threads). 1, the
   // default, is one run per material: the mesh then does not depend on the machine's cores, and on few cores the
   // cut and the seams cost more than the parallel runs win. Pieces leave about as few slivers (the paper-size head in
-  // 16 pieces: 3 tets under 12 degrees, from 11.0, against none whole), so many-core hosts should ask for them.
+  // 16 pieces: 2-3 tets under 12 degrees, from 11.0, against none whole), so many-core hosts should ask for them.
   size_t runs = 1;
   size_t min_piece_triangles = 20'000;  // a material is cut only into pieces of at least this many boundary triangles
                                         // on average (a piece between two moved planes may keep half its share)
