@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <thread>
 
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
@@ -362,4 +363,33 @@ TEST_CASE("FilteredPredicates: the floating-point answers it gives agree in sign
   CHECK(insphere_wrong == 0);
   // The extent is widened where an axis is flat.
   CHECK(mesh::FilteredPredicates(glm::dvec3(4.0, 0.0, 2.0)).extent() == glm::dvec3(4.0, 0.004, 2.0));
+}
+
+TEST_CASE("DelaunayMesh: meshes built at once on two threads equal the same meshes built alone") {
+  // A smoke test of concurrent use (shared scratch or settings between instances would show here); it does not
+  // catch every interleaving: one filter bound shared by both (the old process-wide one) passed it, as the build
+  // that sets it last may be the one whose bound is safe for both.
+  // Point sets of very different extents (their predicates' filters differ by orders of magnitude; the cuts of
+  // split_material build such meshes side by side): random points in a box 1e-3 wide, and a lattice of spacing 0.1
+  // (cospherical sets whose floating-point determinants are rounding noise: only the exact predicates decide them,
+  // and the other mesh's filters would let the noise through).
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<glm::dvec3> small, large;
+  for (int i = 0; i < 30000; ++i) small.push_back(glm::dvec3(1000.0) + 1e-3 * glm::dvec3(u(rng), u(rng), u(rng)));
+  for (int z = 0; z < 24; ++z)
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < 24; ++x) large.push_back(glm::dvec3(-5.0) + 0.1 * glm::dvec3(x, y, z));
+  const mesh::Tets small_alone = mesh::parallel_delaunay(small), large_alone = mesh::parallel_delaunay(large);
+  mesh::DelaunayStats small_stats, large_stats;
+  mesh::Tets small_together, large_together;
+  std::thread other([&] { large_together = mesh::parallel_delaunay(large, &large_stats); });
+  small_together = mesh::parallel_delaunay(small, &small_stats);
+  other.join();
+  CHECK_FALSE(small_stats.fell_back);
+  CHECK_FALSE(large_stats.fell_back);
+  CHECK(small_together.tets == small_alone.tets);
+  CHECK(small_together.neighbours == small_alone.neighbours);
+  CHECK(large_together.tets == large_alone.tets);
+  CHECK(large_together.neighbours == large_alone.neighbours);
 }
