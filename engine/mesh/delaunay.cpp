@@ -435,6 +435,25 @@ struct DelaunayMesh::Impl {
     if (!get_tets(r, tetgen) || !r.done()) throw std::runtime_error("TetGen: truncated result from the child process");
   }
 
+  // Exact duplicates among points[first..]: all but the first of each (by index) get meshed = 0; returns how many.
+  size_t mark_duplicates(size_t first) {
+    std::vector<uint32_t> by_place(points.size() - first);
+    std::iota(by_place.begin(), by_place.end(), uint32_t(first));
+    tbb::parallel_sort(by_place.begin(), by_place.end(), [&](uint32_t a, uint32_t b) {
+      const auto &p = points[a], &q = points[b];
+      if (p.x != q.x) return p.x < q.x;
+      if (p.y != q.y) return p.y < q.y;
+      if (p.z != q.z) return p.z < q.z;
+      return a < b;
+    });
+    size_t found = 0;
+    for (size_t i = 1; i < by_place.size(); ++i)
+      if (points[by_place[i]] == points[by_place[i - 1]]) {
+        meshed[by_place[i]] = 0;
+        ++found;
+      }
+    return found;
+  }
   // Meshes `input` from scratch.
   void build();
   // Inserts order[begin..] into the mesh; where made is given, the tets it makes and the tets just outside their
@@ -478,22 +497,8 @@ void DelaunayMesh::Impl::build() {
   set_predicates();
 
   // Exact duplicates: only the first is meshed.
-  std::vector<uint32_t> by_place(points.size());
-  std::iota(by_place.begin(), by_place.end(), 0u);
-  tbb::parallel_sort(by_place.begin(), by_place.end(), [&](uint32_t a, uint32_t b) {
-    const auto &p = points[a], &q = points[b];
-    if (p.x != q.x) return p.x < q.x;
-    if (p.y != q.y) return p.y < q.y;
-    if (p.z != q.z) return p.z < q.z;
-    return a < b;
-  });
   meshed.assign(points.size(), 1);
-  st.duplicates = 0;
-  for (size_t i = 1; i < by_place.size(); ++i)
-    if (points[by_place[i]] == points[by_place[i - 1]]) {
-      meshed[by_place[i]] = 0;
-      ++st.duplicates;
-    }
+  st.duplicates = mark_duplicates(0);
 
   // A seeded random order; the first four points that span space start the mesh.
   order.clear();
@@ -721,21 +726,8 @@ void DelaunayMesh::insert(const std::vector<glm::dvec3>& more) {
   }
   m.set_predicates();  // the box may have grown
   // Exact duplicates among the new points: only the first goes in (the walk finds those of meshed points).
-  std::vector<uint32_t> fresh(more.size());
-  std::iota(fresh.begin(), fresh.end(), uint32_t(old));
-  tbb::parallel_sort(fresh.begin(), fresh.end(), [&](uint32_t a, uint32_t b) {
-    const auto &p = m.points[a], &q = m.points[b];
-    if (p.x != q.x) return p.x < q.x;
-    if (p.y != q.y) return p.y < q.y;
-    if (p.z != q.z) return p.z < q.z;
-    return a < b;
-  });
   m.meshed.resize(m.input.size(), 1);
-  for (size_t i = 1; i < fresh.size(); ++i)
-    if (m.points[fresh[i]] == m.points[fresh[i - 1]]) {
-      m.meshed[fresh[i]] = 0;
-      ++m.st.duplicates;
-    }
+  m.st.duplicates += m.mark_duplicates(old);
   const size_t begin = m.order.size();
   for (uint32_t i = uint32_t(old); i < m.input.size(); ++i)
     if (m.meshed[i]) m.order.push_back(i);

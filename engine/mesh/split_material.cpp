@@ -197,6 +197,23 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   out.axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
   const int axis = out.axis;
 
+  // Mean edge length at each vertex (the clearance of the lattice from it) and over the boundary (the planes' grazing
+  // band, the parity test's cells).
+  std::vector<double> edge_sum(n_surface, 0.0), clearance(n_surface, 0.0);
+  std::vector<uint32_t> edge_count(n_surface, 0);
+  for (const auto& t : tri)
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = t[size_t(e)], b = t[size_t((e + 1) % 3)];
+      const double l = glm::length(P[a] - P[b]);
+      edge_sum[a] += l, edge_sum[b] += l;
+      ++edge_count[a], ++edge_count[b];
+    }
+  double mean_edge = 0;
+  for (size_t v = 0; v < n_surface; ++v) {
+    clearance[v] = kClearance * edge_sum[v] / std::max<uint32_t>(edge_count[v], 1);
+    mean_edge += edge_sum[v] / (3.0 * double(tri.size()) * 2.0);
+  }
+
   // Planes near quantiles of the vertices along the axis, each where it grazes the boundary least: where the
   // boundary runs nearly parallel to a plane close to it, the separator meets it at a small angle and the tets in
   // that wedge stay slivers through every pass (the paper-size head in 16 pieces: of the 83 tets left under 12
@@ -209,23 +226,20 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   std::sort(along.begin(), along.end());
-  double mean_edge_all = 0;
   std::vector<std::pair<double, double>> grazing;  // (centroid along the axis, area) of the grazing triangles
   for (const auto& t : tri) {
     const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
     const double area2 = glm::length(n);
-    mean_edge_all += glm::length(P[t[0]] - P[t[1]]) + glm::length(P[t[1]] - P[t[2]]) + glm::length(P[t[2]] - P[t[0]]);
     if (area2 > 0 && std::fabs(n[axis]) >= kGrazeCos * area2)
       grazing.push_back({(P[t[0]][axis] + P[t[1]][axis] + P[t[2]][axis]) / 3, area2 / 2});
   }
-  mean_edge_all /= 3.0 * double(tri.size());
   std::sort(grazing.begin(), grazing.end());
   std::vector<double> graze_at(grazing.size()), graze_sum(grazing.size() + 1, 0.0);
   for (size_t i = 0; i < grazing.size(); ++i) {
     graze_at[i] = grazing[i].first;
     graze_sum[i + 1] = graze_sum[i] + grazing[i].second;
   }
-  const double band = kGrazeBand * mean_edge_all;
+  const double band = kGrazeBand * mean_edge;
   auto grazed = [&](double c) {
     const auto a = std::lower_bound(graze_at.begin(), graze_at.end(), c - band) - graze_at.begin();
     const auto b = std::upper_bound(graze_at.begin(), graze_at.end(), c + band) - graze_at.begin();
@@ -264,22 +278,6 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     out.planes.push_back(best);
     if (out.planes.size() > 1 && !(out.planes.back() > out.planes[out.planes.size() - 2]))
       return refuse("two cut planes coincide (many boundary vertices share one coordinate)");
-  }
-
-  // Mean edge length at each vertex: the clearance of the lattice from it, and the lattice's spacing.
-  std::vector<double> edge_sum(n_surface, 0.0), clearance(n_surface, 0.0);
-  std::vector<uint32_t> edge_count(n_surface, 0);
-  for (const auto& t : tri)
-    for (int e = 0; e < 3; ++e) {
-      const uint32_t a = t[size_t(e)], b = t[size_t((e + 1) % 3)];
-      const double l = glm::length(P[a] - P[b]);
-      edge_sum[a] += l, edge_sum[b] += l;
-      ++edge_count[a], ++edge_count[b];
-    }
-  double mean_edge = 0;
-  for (size_t v = 0; v < n_surface; ++v) {
-    clearance[v] = kClearance * edge_sum[v] / std::max<uint32_t>(edge_count[v], 1);
-    mean_edge += edge_sum[v] / (3.0 * double(tri.size()) * 2.0);
   }
 
   // Lattice points, plane by plane, spaced by the mean edge length of the boundary triangles the plane cuts.
