@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -15,6 +16,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "fields/curve_fit.h"
 
@@ -341,7 +343,7 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
 
 // The curve smoothing's moves (see the header) from an embedding of the curves: owner[i] is the feature whose
 // closest point fine point i stores. One move per representative: the mean stored point in a cell of a quarter voxel.
-std::vector<CurveMove> curve_moves(const IndicatorFields& F, const ClosestPointEmbedding& E, const std::vector<uint32_t>& owner,
+std::vector<CurveMove> curve_moves(const IndicatorFields& F, const ClosestPointEmbedding& E, std::span<const uint32_t> owner,
                                    double sigma, bool extrapolate) {
   const double h = E.grid.min_spacing();
   const double cell = 0.25 * h;
@@ -566,7 +568,7 @@ namespace {
 // The embedding of every feature, or of the triple curves and quadruple points alone (curves_only: what the curve
 // smoothing measures). owner (optional) receives, per fine point, the feature its closest point ended on.
 ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingOptions& options, bool curves_only,
-                                      std::vector<uint32_t>* owner_out) {
+                                      HostArray<uint32_t>* owner_out) {
   ClosestPointEmbedding E;
   E.grid = F.grid;
   E.sub = embedding_subcells(options);
@@ -601,20 +603,47 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
       label_index[v] = uint16_t(best);
     }
   });
-  for (int kk = 0; kk + 1 < grid.dims.z; ++kk)
-    for (int j = 0; j + 1 < grid.dims.y; ++j)
-      for (int i = 0; i + 1 < grid.dims.x; ++i) {
-        uint16_t present[8];
-        const int n = grid.corner_labels(i, j, kk, [&](size_t v) { return label_index[v]; }, present);
-        // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
-        for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
-          auto& found = found_in[s];
-          if (found.empty()) found.resize(bin_count, 0);
-          found[bin_of(i, j, kk)] = 1;
-          if (bits == 4) quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
-          if (bits == 3) curve_cells[s].push_back(glm::ivec3(i, j, kk));
-        });
-      }
+  // (Each z layer of dual cells in parallel; the layers' finds are then merged in layer order, so every list keeps the
+  // order of one loop over the volume.)
+  struct LayerFinds {
+    std::map<MaterialSet, std::vector<size_t>> bins;
+    std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
+    std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
+  };
+  std::vector<LayerFinds> layers(size_t(std::max(grid.dims.z - 1, 0)));
+  tbb::parallel_for(tbb::blocked_range<int>(0, int(layers.size())), [&](const tbb::blocked_range<int>& r) {
+    for (int kk = r.begin(); kk < r.end(); ++kk) {
+      LayerFinds& layer = layers[size_t(kk)];
+      for (int j = 0; j + 1 < grid.dims.y; ++j)
+        for (int i = 0; i + 1 < grid.dims.x; ++i) {
+          uint16_t present[8];
+          const int n = grid.corner_labels(i, j, kk, [&](size_t v) { return label_index[v]; }, present);
+          // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
+          for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
+            auto& bins_of_set = layer.bins[s];
+            if (bins_of_set.empty() || bins_of_set.back() != bin_of(i, j, kk)) bins_of_set.push_back(bin_of(i, j, kk));
+            if (bits == 4) layer.quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
+            if (bits == 3) layer.curve_cells[s].push_back(glm::ivec3(i, j, kk));
+          });
+        }
+    }
+  });
+  for (LayerFinds& layer : layers) {
+    for (const auto& [s, where] : layer.bins) {
+      auto& found = found_in[s];
+      if (found.empty()) found.resize(bin_count, 0);
+      for (size_t b : where) found[b] = 1;
+    }
+    for (auto& [s, starts] : layer.quad_starts) {
+      auto& all = quad_starts[s];
+      all.insert(all.end(), starts.begin(), starts.end());
+    }
+    for (auto& [s, cells] : layer.curve_cells) {
+      auto& all = curve_cells[s];
+      all.insert(all.end(), cells.begin(), cells.end());
+    }
+    layer = {};
+  }
   for (size_t count : {2u, 3u, 4u})
     for (const auto& [s, where] : found_in) {
       const size_t c = size_t(std::count_if(s.begin(), s.end(), [](uint16_t x) { return x != kNone; }));
@@ -693,7 +722,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   });
   std::vector<uint64_t> cells;
   for (auto& part : local_entries) cells.insert(cells.end(), part.begin(), part.end());
-  std::sort(cells.begin(), cells.end());
+  tbb::parallel_sort(cells.begin(), cells.end());
 
   // 5. Fine level: the closest point of every fine point of every block, by Newton projection on the smooth fields,
   //    restricted to the feature (bounding curves and points take over beyond them).
@@ -711,7 +740,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   //    instead of 33 and made 2-4 interfaces non-manifold: the thin layers' meshing must be fixed before this can.
   const int sub = E.sub, per_block = sub * sub * sub;
   E.fine.resize(cells.size() * size_t(per_block));
-  std::vector<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
+  HostArray<uint32_t> owner(E.fine.size());  // the feature each fine point's closest point ended on
   std::vector<uint8_t> landed_in(cells.size(), 0);  // per block: some fine point landed
   std::atomic<uint64_t> total_steps{0}, total_failed{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, cells.size()), [&](const tbb::blocked_range<size_t>& r) {
@@ -845,7 +874,7 @@ ClosestPointEmbedding build_closest_point_embedding(const IndicatorFields& F, co
 
 std::vector<CurveMove> triple_curve_moves(const IndicatorFields& F, const EmbeddingOptions& options) {
   if (options.curve_smoothing <= 0) return {};
-  std::vector<uint32_t> owner;
+  HostArray<uint32_t> owner;
   const ClosestPointEmbedding curves = build_embedding(F, options, true, &owner);
   return curve_moves(F, curves, owner, options.curve_smoothing * F.grid.min_spacing(), options.junction_extrapolation);
 }

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "fields/host_array.h"
 #include "fields/indicator_fields.h"
 
 namespace cpmesh::fields {
@@ -91,7 +92,7 @@ struct ClosestPointEmbedding {
   std::vector<uint64_t> keys;
   std::vector<uint32_t> blocks;
   // Fine level: sub^3 points per block, x fastest: closest point (local coordinates) in xyz, w free for the sizing field.
-  std::vector<glm::vec4> fine;
+  HostArray<glm::vec4> fine;
 
   // What the fine level took: the points computed (all of `fine`; the curve smoothing's own embedding drops its
   // blocks where no point landed afterwards), those where every Newton projection failed (they keep where the last

@@ -1,6 +1,7 @@
 #include "fields/distance_transform.h"
 
 #include <limits>
+#include <vector>
 
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
@@ -45,7 +46,7 @@ void squared_distance_1d(float* f, int n, size_t stride, double spacing, int* v,
   for (int q = 0; q < n; ++q) f[size_t(q) * stride] = d[q];
 }
 
-void squared_distance_transform(const Grid& grid, std::vector<float>& values) {
+void squared_distance_transform(const Grid& grid, std::span<float> values) {
   const glm::ivec3 n = grid.dims;
   const size_t sx = 1, sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
   // One pass per axis; the lines of a pass are independent.

@@ -4,15 +4,20 @@
 #include <cstdint>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
+#include <tuple>
+#include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "fields/distance_transform.h"
+#include "fields/host_array.h"
 
 namespace cpmesh::fields {
 
@@ -24,7 +29,7 @@ struct Box {
 };
 
 // Separable Gaussian along one axis of a crop, in place, lines in parallel. Samples beyond the crop repeat the edge.
-void gaussian_pass(std::vector<float>& f, const glm::ivec3& n, int axis, double sigma) {
+void gaussian_pass(std::span<float> f, const glm::ivec3& n, int axis, double sigma) {
   if (sigma <= 0) return;
   const int radius = int(std::ceil(3.0 * sigma));
   std::vector<double> w(size_t(2 * radius + 1));
@@ -76,26 +81,27 @@ double smoothstep01(double x) {
 // The flow for -phi is the flow for phi negated, so the two fields of an interface move together.
 // weight(ci) in [0, 1] fades the flow out (junctions, protected thin parts). Returns nothing; phi is updated.
 template <class Weight>
-void tighten_field(std::vector<float>& phi, const glm::ivec3& n, const glm::dvec3& spacing, double r, int iterations,
+void tighten_field(std::span<float> phi, const glm::ivec3& n, const glm::dvec3& spacing, double r, int iterations,
                    double band, Weight weight) {
   const double h = std::min({spacing.x, spacing.y, spacing.z});
   const double kmax = 1.0 / r;
   const double dt = 0.12 * h * h;  // explicit curvature flow: stable below h^2 / 6
   const size_t sx = 1, sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
   // The voxels the flow may touch: interior of the crop, within r + 2 voxels of the surface, weight > 0.
-  std::vector<size_t> active;
-  std::vector<float> w;
-  for (int k = 1; k + 1 < n.z; ++k)
+  const auto found = collect_in_order<std::pair<size_t, float>>(n.z - 2, [&](int layer, auto& out) {
+    const int k = layer + 1;
     for (int j = 1; j + 1 < n.y; ++j)
       for (int i = 1; i + 1 < n.x; ++i) {
         const size_t ci = size_t(k) * sz + size_t(j) * sy + size_t(i);
         if (std::fabs(phi[ci]) >= r + 2 * h) continue;
         const double wi = weight(ci);
-        if (wi <= 0) continue;
-        active.push_back(ci);
-        w.push_back(float(wi));
+        if (wi > 0) out.emplace_back(ci, float(wi));
       }
-  if (active.empty()) return;
+  });
+  if (found.empty()) return;
+  std::vector<size_t> active(found.size());
+  std::vector<float> w(found.size());
+  for (size_t a = 0; a < found.size(); ++a) std::tie(active[a], w[a]) = found[a];
   std::vector<float> phi0(active.size()), next(active.size());
   for (size_t a = 0; a < active.size(); ++a) phi0[a] = phi[active[a]];
   const double ix = 1 / spacing.x, iy = 1 / spacing.y, iz = 1 / spacing.z;
@@ -133,7 +139,9 @@ void tighten_field(std::vector<float>& phi, const glm::ivec3& n, const glm::dvec
         next[a] = float(std::clamp(value, std::max(phi0[a] - r, -band), std::min(phi0[a] + r, band)));
       }
     });
-    for (size_t a = 0; a < active.size(); ++a) phi[active[a]] = next[a];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size()), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t a = range.begin(); a < range.end(); ++a) phi[active[a]] = next[a];
+    });
   }
 }
 
@@ -151,7 +159,7 @@ struct CornerShares {
 
 // protected_distance: squared distance to the nearest thin-part voxel (empty: none known).
 std::vector<CornerShares> corner_shares(const Grid& grid, const uint16_t* labels, const std::vector<glm::ivec3>& corners,
-                                        const std::vector<float>& protected_distance) {
+                                        std::span<const float> protected_distance) {
   const double h = grid.min_spacing();
   // The shares are taken around the mean of the junction corners within two voxels rather than around the corner
   // itself: a staircase of corners zigzags up to a voxel off the curve, and a ball a voxel off a wedge's apex gets
@@ -239,7 +247,7 @@ JunctionAngles junction_angles(const std::vector<CornerShares>& shares, const st
 // the field is at the band's edge. Every voxel of the field keeps its sign (+-keep at least).
 BrickField add_junction_offset(uint16_t label, BrickField& field, double band, float keep,
                                const std::vector<glm::ivec3>& corners, const JunctionAngles& angles,
-                               const std::vector<float>& junction_distance, const Grid& grid, double fade) {
+                               std::span<const float> junction_distance, const Grid& grid, double fade) {
   const double h = grid.min_spacing();
   const double radius = fade + 1.5 * h;
   const glm::ivec3 reach = glm::ivec3(glm::ceil(radius / grid.spacing)) + 1;
@@ -324,34 +332,57 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   const float band = float(out.band);
 
   // Labels present, their voxel counts and bounding boxes.
-  std::map<uint16_t, std::pair<uint64_t, Box>> found;
-  for (int k = 0; k < grid.dims.z; ++k)
-    for (int j = 0; j < grid.dims.y; ++j)
-      for (int i = 0; i < grid.dims.x; ++i) {
-        auto& [count, box] = found[labels[grid.index(i, j, k)]];
-        ++count;
-        box.lo = glm::min(box.lo, glm::ivec3(i, j, k));
-        box.hi = glm::max(box.hi, glm::ivec3(i, j, k));
-      }
+  // (Slabs of z in parallel; each row's runs of one label as one entry.)
+  using LabelInfo = std::map<uint16_t, std::pair<uint64_t, Box>>;
+  const LabelInfo found = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, grid.dims.z), LabelInfo{},
+      [&](const tbb::blocked_range<int>& r, LabelInfo acc) {
+        for (int k = r.begin(); k < r.end(); ++k)
+          for (int j = 0; j < grid.dims.y; ++j) {
+            const uint16_t* row = labels + grid.index(0, j, k);
+            for (int i = 0; i < grid.dims.x;) {
+              int end = i + 1;
+              while (end < grid.dims.x && row[end] == row[i]) ++end;
+              auto& [count, box] = acc[row[i]];
+              count += uint64_t(end - i);
+              box.lo = glm::min(box.lo, glm::ivec3(i, j, k));
+              box.hi = glm::max(box.hi, glm::ivec3(end - 1, j, k));
+              i = end;
+            }
+          }
+        return acc;
+      },
+      [](LabelInfo a, const LabelInfo& b) {
+        for (const auto& [label, info] : b) {
+          auto& [count, box] = a[label];
+          count += info.first;
+          box.lo = glm::min(box.lo, info.second.lo);
+          box.hi = glm::max(box.hi, info.second.hi);
+        }
+        return a;
+      });
 
   // Distance to the junctions (voxel corners where three or more labels meet). Near them the smoothing changes:
   // smoothing each material's distance field alone rounds every wedge-shaped edge of a material and so moves
   // triple curves and quadruple points (about 0.5 voxel into the convex side at sigma = 1).
-  std::vector<float> junction_distance;
+  HostArray<float> junction_distance;
   std::vector<glm::ivec3> junction_corners;  // lowest voxel of each 2x2x2 block with three or more labels
   std::vector<uint8_t> junction_corner_labels;  // how many
   if (options.junction_fade > 0) {
-    junction_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
-    for (int k = 0; k + 1 < grid.dims.z; ++k)
+    junction_distance = filled(grid.voxel_count(), std::numeric_limits<float>::infinity());
+    const auto found = collect_in_order<std::pair<glm::ivec3, uint8_t>>(grid.dims.z - 1, [&](int k, auto& out) {
       for (int j = 0; j + 1 < grid.dims.y; ++j)
         for (int i = 0; i + 1 < grid.dims.x; ++i) {
           uint16_t seen[8];
           const int present = grid.corner_labels(i, j, k, [&](size_t v) { return labels[v]; }, seen);
-          if (present < 3) continue;
-          junction_corners.emplace_back(i, j, k);
-          junction_corner_labels.push_back(uint8_t(present));
-          for (int c = 0; c < 8; ++c) junction_distance[grid.index(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] = 0;
+          if (present >= 3) out.emplace_back(glm::ivec3(i, j, k), uint8_t(present));
         }
+    });
+    for (const auto& [v, present] : found) {
+      junction_corners.push_back(v);
+      junction_corner_labels.push_back(present);
+      for (int c = 0; c < 8; ++c) junction_distance[grid.index(v.x + (c & 1), v.y + ((c >> 1) & 1), v.z + (c >> 2))] = 0;
+    }
     squared_distance_transform(grid, junction_distance);
   }
   const double fade = options.junction_fade * h;
@@ -370,30 +401,43 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // has junction corners wherever its staircase lets its two neighbours touch, and an offset there can cut it.
   const double thin_r = tighten_r > 0 ? tighten_r : options.junction_correction > 0 ? h : 0.0;
   out.thin_radius = thin_r / h;
-  std::vector<float> protected_distance;
+  HostArray<float> protected_distance;
   if (thin_r > 0) {
-    protected_distance.assign(grid.voxel_count(), std::numeric_limits<float>::infinity());
+    protected_distance = filled(grid.voxel_count(), std::numeric_limits<float>::infinity());
     for (const auto& [label, info] : found) {
       const Box crop = crop_of(info.second);
       const glm::ivec3 n = crop.size();
       Grid cgrid{n, grid.spacing, grid.origin};
       const size_t cn = cgrid.voxel_count();
-      std::vector<float> depth(cn), to_core(cn);
+      HostArray<float> depth(cn), to_core(cn);
       auto full_index = [&](size_t ci) {
         const glm::ivec3 v = crop.lo + cgrid.voxel(ci);
         return grid.index(v.x, v.y, v.z);
       };
-      for (size_t ci = 0; ci < cn; ++ci) depth[ci] = labels[full_index(ci)] == label ? std::numeric_limits<float>::infinity() : 0.0f;
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t ci = r.begin(); ci < r.end(); ++ci)
+          depth[ci] = labels[full_index(ci)] == label ? std::numeric_limits<float>::infinity() : 0.0f;
+      });
       squared_distance_transform(cgrid, depth);
-      for (size_t ci = 0; ci < cn; ++ci)
-        to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= thin_r ? 0.0f
-                                                                                     : std::numeric_limits<float>::infinity();
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t ci = r.begin(); ci < r.end(); ++ci)
+          to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= thin_r
+                            ? 0.0f
+                            : std::numeric_limits<float>::infinity();
+      });
       squared_distance_transform(cgrid, to_core);
-      for (size_t ci = 0; ci < cn; ++ci)
-        if (depth[ci] > 0 && !(std::sqrt(double(to_core[ci])) <= 2.0 * thin_r)) {
-          protected_distance[full_index(ci)] = 0;
-          ++out.protected_voxels;
-        }
+      // Each voxel is in one label's mask (depth > 0), so the labels' writes never meet.
+      out.protected_voxels += tbb::parallel_reduce(
+          tbb::blocked_range<size_t>(0, cn), uint64_t(0),
+          [&](const tbb::blocked_range<size_t>& r, uint64_t count) {
+            for (size_t ci = r.begin(); ci < r.end(); ++ci)
+              if (depth[ci] > 0 && !(std::sqrt(double(to_core[ci])) <= 2.0 * thin_r)) {
+                protected_distance[full_index(ci)] = 0;
+                ++count;
+              }
+            return count;
+          },
+          std::plus<>());
     }
     squared_distance_transform(grid, protected_distance);
   }
@@ -425,8 +469,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       return grid.index(v.x, v.y, v.z);
     };
     constexpr float inf = std::numeric_limits<float>::infinity();
-    std::vector<float> to_inside(cn), to_outside(cn);
-    std::vector<uint8_t> inside(cn);
+    HostArray<float> to_inside(cn), to_outside(cn);
+    HostArray<uint8_t> inside(cn);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t ci = r.begin(); ci < r.end(); ++ci) {
         inside[ci] = labels[full_index(ci)] == label;
@@ -437,29 +481,29 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
     squared_distance_transform(cgrid, to_inside);
     squared_distance_transform(cgrid, to_outside);
     // Signed distance to the mask boundary, which lies half a voxel beyond the boundary voxels' centres.
-    std::vector<float>& phi = to_inside;
+    HostArray<float>& phi = to_inside;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t ci = r.begin(); ci < r.end(); ++ci) {
         const double d = inside[ci] ? std::sqrt(double(to_outside[ci])) - 0.5 * h : -(std::sqrt(double(phi[ci])) - 0.5 * h);
         phi[ci] = float(std::clamp(d, -double(band), double(band)));
       }
     });
-    to_outside = {};
+    HostArray<float>().swap(to_outside);  // (freed: "= {}" would keep its capacity)
     // Constrained smoothing: no voxel centre changes side. Near junctions the plain Gaussian gives way to Tukey's
     // twicing of a narrower one, 2 G_j f - G_j G_j f: it removes the staircase as well, but rounds the wedge-shaped
     // edges of materials far less (at a kink, 0.33 voxel at sigma_j = 0.7 against 0.8 for sigma = 1), and it is that
     // rounding, unequal between a material's 90-degree edge and its neighbour's flat side, that moves triple curves.
     const float keep = float(1e-3 * h);
     const bool twice = !junction_distance.empty() && options.junction_sigma > 0;
-    std::vector<float> narrow, narrow2;
-    auto blur = [&](std::vector<float>& f, double sigma) {
+    HostArray<float> narrow, narrow2;
+    auto blur = [&](std::span<float> f, double sigma) {
       for (int axis = 0; axis < 3; ++axis) gaussian_pass(f, n, axis, sigma / grid.spacing[axis]);
     };
     for (int it = 0; it < options.smoothing_iterations; ++it) {
       if (twice) {
-        narrow = phi;
+        copy_into(narrow, phi);
         blur(narrow, options.junction_sigma * h);
-        narrow2 = narrow;
+        copy_into(narrow2, narrow);
         blur(narrow2, options.junction_sigma * h);
       }
       blur(phi, sigma_phys);
@@ -480,7 +524,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
     // (s^2 / 2) * Laplacian undoes it; the Laplacian is smoothed first (curvature_sigma) so the staircase is not
     // sharpened back. Near junctions the twicing is already corrected to this order and the term fades out.
     if (options.curvature_correction && sigma_phys > 0) {
-      std::vector<float> lap(cn, 0.0f);
+      HostArray<float> lap = filled(cn, 0.0f);
       const double ix2 = 1 / (grid.spacing.x * grid.spacing.x), iy2 = 1 / (grid.spacing.y * grid.spacing.y),
                    iz2 = 1 / (grid.spacing.z * grid.spacing.z);
       const size_t sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
@@ -511,43 +555,67 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
                                                             : 10 + int(std::ceil(10.0 * options.tighten_radius));
       tighten_field(phi, n, grid.spacing, tighten_r, iterations, double(band),
                     [&](size_t ci) { return tighten_weight(full_index(ci)); });
-      for (size_t ci = 0; ci < cn; ++ci) moved += bool(inside[ci]) != (phi[ci] > 0);
+      moved = tbb::parallel_reduce(
+          tbb::blocked_range<size_t>(0, cn), uint64_t(0),
+          [&](const tbb::blocked_range<size_t>& r, uint64_t count) {
+            for (size_t ci = r.begin(); ci < r.end(); ++ci) count += bool(inside[ci]) != (phi[ci] > 0);
+            return count;
+          },
+          std::plus<>());
     }
     out.tightened_voxels.push_back(moved);
 
     // Into bricks: allocate those where the field is not a constant +-band.
+    // Classified in parallel, allocated in brick order (the same data layout as one loop), then filled in parallel.
     const glm::ivec3 blo = crop.lo / BrickField::kBrick, bhi = crop.hi / BrickField::kBrick;
-    for (int bz = blo.z; bz <= bhi.z; ++bz)
-      for (int by = blo.y; by <= bhi.y; ++by)
-        for (int bx = blo.x; bx <= bhi.x; ++bx) {
-          const glm::ivec3 b(bx, by, bz);
-          const glm::ivec3 v0 = b * BrickField::kBrick, v1 = glm::min(v0 + BrickField::kBrick, grid.dims) - 1;
-          bool varies = false, all_inside = true;
-          for (int k = v0.z; k <= v1.z; ++k)
-            for (int j = v0.y; j <= v1.y; ++j)
-              for (int i = v0.x; i <= v1.x; ++i) {
-                const glm::ivec3 c = glm::ivec3(i, j, k) - crop.lo;
-                if (glm::any(glm::lessThan(c, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(c, n))) {
-                  all_inside = false;  // beyond the crop: far outside the material
-                  continue;
-                }
-                const float v = phi[(size_t(c.z) * size_t(n.y) + size_t(c.y)) * size_t(n.x) + size_t(c.x)];
-                if (std::fabs(v) < band) varies = true;
-                if (v < 0) all_inside = false;
+    const glm::ivec3 nb = bhi - blo + 1;
+    auto brick_of = [&](size_t q) {
+      return blo + glm::ivec3(int(q % size_t(nb.x)), int((q / size_t(nb.x)) % size_t(nb.y)), int(q / (size_t(nb.x) * size_t(nb.y))));
+    };
+    auto phi_at = [&](int i, int j, int k, bool* in_crop) {
+      const glm::ivec3 c = glm::ivec3(i, j, k) - crop.lo;
+      *in_crop = !glm::any(glm::lessThan(c, glm::ivec3(0))) && !glm::any(glm::greaterThanEqual(c, n));
+      return *in_crop ? phi[(size_t(c.z) * size_t(n.y) + size_t(c.y)) * size_t(n.x) + size_t(c.x)] : -band;
+    };
+    enum BrickKind : uint8_t { kOutside, kInside, kVaries };
+    std::vector<uint8_t> kind(size_t(nb.x) * size_t(nb.y) * size_t(nb.z));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, kind.size()), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t q = r.begin(); q < r.end(); ++q) {
+        const glm::ivec3 v0 = brick_of(q) * BrickField::kBrick, v1 = glm::min(v0 + BrickField::kBrick, grid.dims) - 1;
+        bool varies = false, all_inside = true;
+        for (int k = v0.z; k <= v1.z; ++k)
+          for (int j = v0.y; j <= v1.y; ++j)
+            for (int i = v0.x; i <= v1.x; ++i) {
+              bool in_crop;
+              const float v = phi_at(i, j, k, &in_crop);
+              if (!in_crop) {
+                all_inside = false;  // beyond the crop: far outside the material
+                continue;
               }
-          if (!varies) {
-            field.set_brick_constant(b, all_inside ? band : -band);
-            continue;
-          }
-          field.allocate(b);
-          for (int k = v0.z; k <= v1.z; ++k)
-            for (int j = v0.y; j <= v1.y; ++j)
-              for (int i = v0.x; i <= v1.x; ++i) {
-                const glm::ivec3 c = glm::ivec3(i, j, k) - crop.lo;
-                const bool in_crop = !glm::any(glm::lessThan(c, glm::ivec3(0))) && !glm::any(glm::greaterThanEqual(c, n));
-                field.set(i, j, k, in_crop ? phi[(size_t(c.z) * size_t(n.y) + size_t(c.y)) * size_t(n.x) + size_t(c.x)] : -band);
-              }
-        }
+              if (std::fabs(v) < band) varies = true;
+              if (v < 0) all_inside = false;
+            }
+        kind[q] = varies ? kVaries : all_inside ? kInside : kOutside;
+      }
+    });
+    for (size_t q = 0; q < kind.size(); ++q) {
+      if (kind[q] == kVaries)
+        field.allocate(brick_of(q));
+      else
+        field.set_brick_constant(brick_of(q), kind[q] == kInside ? band : -band);
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, kind.size()), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t q = r.begin(); q < r.end(); ++q) {
+        if (kind[q] != kVaries) continue;
+        const glm::ivec3 v0 = brick_of(q) * BrickField::kBrick, v1 = glm::min(v0 + BrickField::kBrick, grid.dims) - 1;
+        for (int k = v0.z; k <= v1.z; ++k)
+          for (int j = v0.y; j <= v1.y; ++j)
+            for (int i = v0.x; i <= v1.x; ++i) {
+              bool in_crop;
+              field.set(i, j, k, phi_at(i, j, k, &in_crop));
+            }
+      }
+    });
     // The wedge-angle offset goes into the field itself, so interfaces, curves, points and the partition all move
     // together. The offsets are kept for the sizing field (sizing_field.h).
     if (!angles.corners.empty())

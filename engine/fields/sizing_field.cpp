@@ -9,8 +9,10 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
 
 #include "fields/curve_fit.h"
+#include "fields/host_array.h"
 
 namespace cpmesh::fields {
 
@@ -26,8 +28,10 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local) {
 // junction the medial axis of m starts at the junction curve itself, so "distance to where f_m stops growing" would
 // drive h to zero along every triple curve; half the thickness along the normal measures thin parts (a layer of
 // thickness t gives t/2, the distance to its medial plane) without that. Thicker than the stored band can show:
-// infinity (does not limit h).
-double half_thickness(const BrickField& field, const BrickField* offset, const glm::dvec3& p, double band, double step) {
+// infinity (does not limit h). So is a part whose walk has passed max_crossing (the crossing, twice the half
+// thickness, where the density would give h_max: a thicker part is clamped to h_max either way).
+double half_thickness(const BrickField& field, const BrickField* offset, const glm::dvec3& p, double band, double step,
+                      double max_crossing) {
   // The field without its junction offset (indicator_fields.h): the offsets bend interfaces near triple curves by a
   // fraction of a voxel, enough to turn a walk's exit against it, and that is no thin part.
   // (Both fields in one sample: they share the grid, the weights and the gather's indexing.)
@@ -50,7 +54,7 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
   // leaves room for the interpolant's overshoot), so no exit lies within v / kLipschitz of a point of value v.
   constexpr double kLipschitz = 1.5;
   double t_prev = 0, v_prev = 0;
-  for (double t = step; t <= 2.0 * band;) {
+  for (double t = step; t <= 2.0 * band && t_prev <= max_crossing;) {
     const double v = value(p + t * n, nullptr);
     if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
     if (v < 0) {
@@ -130,15 +134,19 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   const size_t blocks = E.block_count();
 
   // Which (cell, feature) each block is.
-  std::vector<uint64_t> block_key(blocks);
-  for (size_t slot = 0; slot < E.keys.size(); ++slot)
-    if (E.keys[slot] != ClosestPointEmbedding::kEmpty) block_key[E.blocks[slot]] = E.keys[slot];
+  HostArray<uint64_t> block_key(blocks);  // every block is in one slot
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, E.keys.size()), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t slot = r.begin(); slot < r.end(); ++slot)
+      if (E.keys[slot] != ClosestPointEmbedding::kEmpty) block_key[E.blocks[slot]] = E.keys[slot];
+  });
 
   // 1. Per interface block whose cell touches its surface: the closest point, the unit normal, and the half
   //    thicknesses of its two materials along the normal (distance to a thin part's medial surface).
-  std::vector<glm::dvec3> position(blocks), normal(blocks, glm::dvec3(0.0));
-  std::vector<double> ridge(blocks, 1e300);
-  std::vector<uint8_t> is_interface(blocks, 0);
+  HostArray<glm::dvec3> position(blocks), normal = filled(blocks, glm::dvec3(0.0));
+  HostArray<double> ridge = filled(blocks, 1e300);
+  HostArray<uint8_t> is_interface = filled(blocks, uint8_t(0));
+  // A crossing beyond this gives a half thickness whose h is above h_max (half_thickness).
+  const double max_crossing = 2.0 * h_max / options.density;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b) {
       const uint32_t fid = uint32_t(block_key[b] & 0xffff);
@@ -155,8 +163,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       normal[b] = glm::normalize(g);
       const double step = 0.25 * grid.min_spacing();
       const bool offsets = !F.junction_offsets.empty();
-      ridge[b] = std::min(half_thickness(fa, offsets ? &F.junction_offsets[feature.materials[0]] : nullptr, p, F.band, step),
-                          half_thickness(fb, offsets ? &F.junction_offsets[feature.materials[1]] : nullptr, p, F.band, step));
+      ridge[b] = std::min(
+          half_thickness(fa, offsets ? &F.junction_offsets[feature.materials[0]] : nullptr, p, F.band, step, max_crossing),
+          half_thickness(fb, offsets ? &F.junction_offsets[feature.materials[1]] : nullptr, p, F.band, step, max_crossing));
     }
   });
 
@@ -203,7 +212,8 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   // whose normals agree with its own (the far side of a thin part is no part of this patch), then averaged over the
   // 3x3x3 neighbouring blocks of the same interface kAveragingPasses times: the forms still carry noise, and grading
   // spreads every low outlier of h. The signed forms are averaged; averaging |k| would bias h low.
-  std::vector<glm::dmat3> shape(blocks, glm::dmat3(0.0));
+  // (Two arrays for all passes: each pass writes every interface block's entry; the others stay 0.)
+  HostArray<glm::dmat3> shape = filled(blocks, glm::dmat3(0.0)), averaged = filled(blocks, glm::dmat3(0.0));
   auto fit_shapes = [&](auto&& window_of) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
       std::vector<glm::dvec3> points, normals;
@@ -223,7 +233,6 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       }
     });
     for (int pass = 0; pass < kAveragingPasses; ++pass) {
-      std::vector<glm::dmat3> averaged(blocks, glm::dmat3(0.0));
       tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t b = r.begin(); b < r.end(); ++b) {
           if (!is_interface[b]) continue;
@@ -241,19 +250,22 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   // the curvature, and the narrow windows read the voxels' staircase as more curvature, not less. (On the 128^3
   // wedge ball at --max-size 2 that is most of the surface, and the second fits were 0.7 of the sizing's 1.8 s.)
   const double h_max_curvature = options.density / (2.0 * h_max);
-  std::vector<double> window(blocks, 0.0);
-  for (size_t b = 0; b < blocks; ++b) {
-    const double k = max_curvature(shape[b]);
-    if (k <= h_max_curvature) continue;  // window 0: not refitted
-    window[b] = std::clamp(kFitScale / k, kFitCells * cell_size, kMaxFitCells * cell_size);
-  }
+  HostArray<double> window(blocks);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      const double k = max_curvature(shape[b]);
+      window[b] = k <= h_max_curvature ? 0.0  // not refitted
+                                       : std::clamp(kFitScale / k, kFitCells * cell_size, kMaxFitCells * cell_size);
+    }
+  });
   fit_shapes([&](size_t b) { return window[b]; });
+  HostArray<glm::dmat3>().swap(averaged);  // freed: the rest needs only `shape`
 
   // The triple curves' own curvature at each curve block whose cell touches its curve, from a local quadratic fit of
   // the curve's points (curve_fit.h). A curve can bend more tightly than either of its surfaces: a plane that cuts a
   // ball off its centre meets it in a circle smaller than the ball, and a chord of that circle strays from it by
   // length^2 / (8 radius).
-  std::vector<double> curve_radius(blocks, 1e300);
+  HostArray<double> curve_radius = filled(blocks, 1e300);
   std::vector<std::vector<uint32_t>> curve_members(E.features.size());
   for (size_t b = 0; b < blocks; ++b)
     if (E.features[block_key[b] & 0xffff].kind == FeatureKind::triple_curve && E.touches_feature(block_key[b] >> 16, b))
@@ -279,8 +291,10 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   // 2. Raw h per voxel cell: the smallest over the interface blocks in it and the triple curves' curvature there.
   //    Junction features take the h of the interfaces around them through the cells they share.
   std::vector<uint64_t> cells(blocks);
-  for (size_t b = 0; b < blocks; ++b) cells[b] = block_key[b] >> 16;
-  std::sort(cells.begin(), cells.end());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) cells[b] = block_key[b] >> 16;
+  });
+  tbb::parallel_sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
   // Cell -> its index in `cells`, by open addressing (the grading and the fine points look up ~30 M cells on a
   // 128^3 volume; a binary search each was a third of this stage).

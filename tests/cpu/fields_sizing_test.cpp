@@ -63,6 +63,14 @@ TEST_CASE("a thin slab limits h by its thickness, and h is graded away from it")
     const double d = glm::length(glm::vec3(p) - glm::vec3(q));
     CHECK(std::fabs(p.w - q.w) <= opt.grading * d + 0.3);
   }
+  // The walk along the normal stops where the half thickness could no longer bring h under h_max: at h_max 2 the
+  // slab's 1.5 still limits h (its crossing, 3 voxels in, is within 2 h_max / density = 4), on the same blocks.
+  SizingOptions low = opt;
+  low.h_max = 2.0;
+  auto E_low = build_closest_point_embedding(F);
+  const auto low_stats = compute_sizing_field(F, E_low, low);
+  CHECK(low_stats.thickness_limited == stats.thickness_limited);
+  CHECK(low_stats.h_min == stats.h_min);
 }
 
 TEST_CASE("grading spreads a thin part's small h along the surface at the grading rate, and no further") {
