@@ -39,7 +39,8 @@ struct Cavity {
 
 SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::array<uint32_t, 4>>& tets,
                                   std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                  size_t fixed, const QualityOptions& options, int rings, size_t batch) {
+                                  size_t fixed, const QualityOptions& options, int rings, size_t batch,
+                                  const std::function<void(size_t cavities)>& before_run) {
   SliverRemeshReport report;
   const double target = options.min_dihedral * M_PI / 180;
   std::vector<uint8_t> below(tets.size());
@@ -211,6 +212,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     std::vector<std::vector<std::array<uint32_t, 4>>> m;
     std::vector<glm::dvec3> np;
     try {
+      if (before_run) before_run(which.size());
       remesh(which, m, np);
     } catch (const std::exception&) {
       ++report.tetgen_failures;

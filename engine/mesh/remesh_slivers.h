@@ -19,6 +19,7 @@
 // Deterministic.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -38,8 +39,11 @@ struct SliverRemeshReport {
 // Removes the points >= fixed that no tet uses, numbering the later ones down; returns how many.
 size_t remove_unused_points(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets, size_t fixed);
 
+// before_run (tests): called with each TetGen run's cavity count before the run; an exception it throws counts as
+// TetGen giving up on that run.
 SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 4>>& tets,
                                   std::vector<int>& region, const std::vector<std::array<uint32_t, 3>>& kept,
-                                  size_t fixed, const QualityOptions& options, int rings = 3, size_t batch = 0);
+                                  size_t fixed, const QualityOptions& options, int rings = 3, size_t batch = 0,
+                                  const std::function<void(size_t cavities)>& before_run = nullptr);
 
 }  // namespace cpmesh::mesh

@@ -6,6 +6,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <tuple>
 
 #include "mesh/quality.h"
@@ -251,6 +252,23 @@ TEST_CASE("remesh_slivers: three slivers in a quality mesh are mended locally; t
   for (const auto& t : tets1)
     for (uint32_t v : t) used[v] = 1;
   CHECK(std::all_of(used.begin() + std::ptrdiff_t(fixed), used.end(), [](uint8_t x) { return x == 1; }));
+
+  // TetGen giving up on every run of more than one cavity: the three are halved down to single runs ({0 1 2} fails,
+  // {0} goes, {1 2} fails, {1} and {2} go), in the order of one run per cavity, so the same mesh as above.
+  std::vector<glm::dvec3> P2 = old_points;
+  std::vector<std::array<uint32_t, 4>> tets2 = old_tets;
+  std::vector<int> region2 = T.region;
+  std::vector<size_t> runs;
+  const auto r2 = mesh::remesh_slivers(P2, tets2, region2, kept, fixed, options, 3, 0, [&](size_t cavities) {
+    runs.push_back(cavities);
+    if (cavities > 1) throw std::runtime_error("TetGen gave up");
+  });
+  CHECK(runs == std::vector<size_t>{3, 1, 2, 1, 1});
+  CHECK(r2.tetgen_failures == 2);
+  CHECK(r2.remeshed == 3);
+  CHECK(P2 == P1);
+  CHECK(tets2 == tets1);
+  CHECK(region2 == region1);
 }
 
 TEST_CASE("remesh_slivers: slivers beside a kept interface between two regions: the interface and the regions stay") {
