@@ -370,7 +370,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   std::vector<uint8_t> junction_corner_labels;  // how many
   if (options.junction_fade > 0) {
     junction_distance = filled(grid.voxel_count(), std::numeric_limits<float>::infinity());
-    const auto found = collect_in_order<std::pair<glm::ivec3, uint8_t>>(grid.dims.z - 1, [&](int k, auto& out) {
+    const auto corners = collect_in_order<std::pair<glm::ivec3, uint8_t>>(grid.dims.z - 1, [&](int k, auto& out) {
       for (int j = 0; j + 1 < grid.dims.y; ++j)
         for (int i = 0; i + 1 < grid.dims.x; ++i) {
           uint16_t seen[8];
@@ -378,7 +378,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           if (present >= 3) out.emplace_back(glm::ivec3(i, j, k), uint8_t(present));
         }
     });
-    for (const auto& [v, present] : found) {
+    for (const auto& [v, present] : corners) {
       junction_corners.push_back(v);
       junction_corner_labels.push_back(present);
       for (int c = 0; c < 8; ++c) junction_distance[grid.index(v.x + (c & 1), v.y + ((c >> 1) & 1), v.z + (c >> 2))] = 0;
@@ -426,7 +426,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
                             : std::numeric_limits<float>::infinity();
       });
       squared_distance_transform(cgrid, to_core);
-      // Each voxel is in one label's mask (depth > 0), so the labels' writes never meet.
+      // (Each crop voxel is its own voxel of the volume: the parallel writes never meet.)
       out.protected_voxels += tbb::parallel_reduce(
           tbb::blocked_range<size_t>(0, cn), uint64_t(0),
           [&](const tbb::blocked_range<size_t>& r, uint64_t count) {

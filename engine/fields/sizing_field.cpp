@@ -28,10 +28,11 @@ glm::dvec3 gradient(const BrickField& f, const glm::dvec3& local) {
 // junction the medial axis of m starts at the junction curve itself, so "distance to where f_m stops growing" would
 // drive h to zero along every triple curve; half the thickness along the normal measures thin parts (a layer of
 // thickness t gives t/2, the distance to its medial plane) without that. Thicker than the stored band can show:
-// infinity (does not limit h). So is a part whose walk has passed max_crossing (the crossing, twice the half
-// thickness, where the density would give h_max: a thicker part is clamped to h_max either way).
+// infinity (does not limit h). So is a part whose walk has passed the depth where a crossing would give an h
+// (density x half thickness) above h_max: it is clamped to h_max either way. (The test is the sizing's own
+// expression: a crossing lies beyond the last sample inside, and rounding keeps that order.)
 double half_thickness(const BrickField& field, const BrickField* offset, const glm::dvec3& p, double band, double step,
-                      double max_crossing) {
+                      double density, double h_max) {
   // The field without its junction offset (indicator_fields.h): the offsets bend interfaces near triple curves by a
   // fraction of a voxel, enough to turn a walk's exit against it, and that is no thin part.
   // (Both fields in one sample: they share the grid, the weights and the gather's indexing.)
@@ -54,7 +55,7 @@ double half_thickness(const BrickField& field, const BrickField* offset, const g
   // leaves room for the interpolant's overshoot), so no exit lies within v / kLipschitz of a point of value v.
   constexpr double kLipschitz = 1.5;
   double t_prev = 0, v_prev = 0;
-  for (double t = step; t <= 2.0 * band && t_prev <= max_crossing;) {
+  for (double t = step; t <= 2.0 * band && !(density * (0.5 * t_prev) > h_max);) {
     const double v = value(p + t * n, nullptr);
     if (v >= band * 0.999) return none;  // reached the clamped interior: thicker than the band can tell
     if (v < 0) {
@@ -145,8 +146,6 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   HostArray<glm::dvec3> position(blocks), normal = filled(blocks, glm::dvec3(0.0));
   HostArray<double> ridge = filled(blocks, 1e300);
   HostArray<uint8_t> is_interface = filled(blocks, uint8_t(0));
-  // A crossing beyond this gives a half thickness whose h is above h_max (half_thickness).
-  const double max_crossing = 2.0 * h_max / options.density;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t b = r.begin(); b < r.end(); ++b) {
       const uint32_t fid = uint32_t(block_key[b] & 0xffff);
@@ -163,9 +162,11 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
       normal[b] = glm::normalize(g);
       const double step = 0.25 * grid.min_spacing();
       const bool offsets = !F.junction_offsets.empty();
-      ridge[b] = std::min(
-          half_thickness(fa, offsets ? &F.junction_offsets[feature.materials[0]] : nullptr, p, F.band, step, max_crossing),
-          half_thickness(fb, offsets ? &F.junction_offsets[feature.materials[1]] : nullptr, p, F.band, step, max_crossing));
+      auto half = [&](const BrickField& f, int m) {
+        return half_thickness(f, offsets ? &F.junction_offsets[feature.materials[m]] : nullptr, p, F.band, step,
+                              options.density, h_max);
+      };
+      ridge[b] = std::min(half(fa, 0), half(fb, 1));
     }
   });
 
