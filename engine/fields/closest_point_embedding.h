@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "fields/host_array.h"
+#include "host/host_array.h"
 #include "fields/indicator_fields.h"
 
 namespace cpmesh::fields {

@@ -17,7 +17,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "fields/distance_transform.h"
-#include "fields/host_array.h"
+#include "host/host_array.h"
 
 namespace cpmesh::fields {
 

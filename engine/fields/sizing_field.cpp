@@ -12,7 +12,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "fields/curve_fit.h"
-#include "fields/host_array.h"
+#include "host/host_array.h"
 
 namespace cpmesh::fields {
 

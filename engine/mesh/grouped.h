@@ -13,11 +13,13 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "host/host_array.h"
+
 namespace cpmesh::mesh {
 
 struct Grouped {
   std::vector<size_t> begin;  // keys + 1 offsets
-  std::vector<uint32_t> list;
+  HostArray<uint32_t> list;  // (every entry written by the parallel fill: no serial zeroing first)
   std::span<const uint32_t> operator[](size_t k) const { return {list.data() + begin[k], list.data() + begin[k + 1]}; }
 };
 

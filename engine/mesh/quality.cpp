@@ -16,6 +16,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "io/synth_volumes.h"
+#include "host/host_array.h"
 #include "mesh/grouped.h"
 
 namespace cpmesh::mesh {
@@ -203,10 +204,9 @@ double orient(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, con
 }
 
 // The open segment pq crosses the open triangle abc (strictly: p and q on opposite sides of its plane, the line
-// through the triangle's inside).
-bool segment_crosses(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b,
-                     const glm::dvec3& c) {
-  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
+// through the triangle's inside). sp, sq: orient(a, b, c, p) and orient(a, b, c, q).
+bool segment_crosses(const glm::dvec3& p, const glm::dvec3& q, double sp, double sq, const glm::dvec3& a,
+                     const glm::dvec3& b, const glm::dvec3& c) {
   if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
   const double u = orient(p, q, a, b), v = orient(p, q, b, c), w = orient(p, q, c, a);
   return (u > 0 && v > 0 && w > 0) || (u < 0 && v < 0 && w < 0);
@@ -223,11 +223,18 @@ bool triangles_cross(const std::vector<glm::dvec3>& V, const std::array<uint32_t
         ti = j;
       }
   if (shared >= 2) return false;
+  // An edge of x crosses y: the sides of y's plane that x's vertices lie on, each computed once for the three edges
+  // (most pairs the grid offers end here, every vertex on one side).
   auto edges_cross = [&](const std::array<uint32_t, 3>& x, const std::array<uint32_t, 3>& y, int skip_at) {
+    const glm::dvec3 &a = V[y[0]], &b = V[y[1]], &c = V[y[2]];
+    double side[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i)
+      if (i != skip_at) side[i] = orient(a, b, c, V[x[size_t(i)]]);  // (the shared vertex's is not needed)
     for (int e = 0; e < 3; ++e) {
       // shared vertex at skip_at: only the edge opposite it, (skip_at + 1, skip_at + 2)
       if (skip_at >= 0 && e != (skip_at + 1) % 3) continue;
-      if (segment_crosses(V[x[size_t(e)]], V[x[size_t((e + 1) % 3)]], V[y[0]], V[y[1]], V[y[2]])) return true;
+      const int f = (e + 1) % 3;
+      if (segment_crosses(V[x[size_t(e)]], V[x[size_t(f)]], side[e], side[f], a, b, c)) return true;
     }
     return false;
   };
@@ -242,7 +249,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
   std::vector<std::array<uint32_t, 2>> out;
   if (T.size() < 2) return out;
   const uint32_t nt = uint32_t(T.size());
-  std::vector<double> lengths(nt);
+  HostArray<double> lengths(nt);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
     for (uint32_t t = r.begin(); t < r.end(); ++t) lengths[t] = glm::length(V[T[t][1]] - V[T[t][0]]);
   });
@@ -255,13 +262,20 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
   // A dense grid over the triangles' bounding box, its cells' triangle lists by counting sort (every step parallel:
   // the smoothing calls this once per round on meshes of millions of triangles). At most 2 cells per triangle: a
   // wider cell where the surface is sparse in a large box.
-  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  for (const auto& t : T)
-    for (uint32_t v : t)
-      if (std::isfinite(V[v].x + V[v].y + V[v].z)) {  // (a non-finite vertex goes to a face cell; it crosses nothing)
-        lo = glm::min(lo, V[v]);
-        hi = glm::max(hi, V[v]);
-      }
+  using Bounds = std::array<glm::dvec3, 2>;
+  const auto [lo, hi] = tbb::parallel_reduce(
+      tbb::blocked_range<uint32_t>(0, nt, 4096),
+      Bounds{glm::dvec3(std::numeric_limits<double>::infinity()), glm::dvec3(-std::numeric_limits<double>::infinity())},
+      [&](const tbb::blocked_range<uint32_t>& r, Bounds b) {
+        for (uint32_t t = r.begin(); t < r.end(); ++t)
+          for (uint32_t v : T[t])
+            if (std::isfinite(V[v].x + V[v].y + V[v].z)) {  // (a non-finite vertex goes to a face cell: crosses nothing)
+              b[0] = glm::min(b[0], V[v]);
+              b[1] = glm::max(b[1], V[v]);
+            }
+        return b;
+      },
+      [](const Bounds& a, const Bounds& b) { return Bounds{glm::min(a[0], b[0]), glm::max(a[1], b[1])}; });
   if (!(lo.x <= hi.x)) return out;
   const glm::dvec3 extent = hi - lo;
   const double max_cells = 2.0 * double(nt) + 64.0;
@@ -287,28 +301,29 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
         for_cells(a, b, add);
       },
       false);
+  // Every triangle's box, once, in one array (the candidates' own triangles and vertices are scattered in memory).
+  HostArray<std::array<glm::dvec3, 2>> boxes(nt);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t t = r.begin(); t < r.end(); ++t) box(T[t], boxes[t][0], boxes[t][1]);
+  });
   tbb::enumerable_thread_specific<std::vector<std::array<uint32_t, 2>>> found;
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 256), [&](const tbb::blocked_range<uint32_t>& r) {
     auto& mine = found.local();
-    std::vector<uint32_t> seen;
     for (uint32_t t = r.begin(); t < r.end(); ++t) {
       if (only && !(*only)[t]) continue;
-      glm::dvec3 a, b;
-      box(T[t], a, b);
-      seen.clear();
+      const glm::dvec3 &a = boxes[t][0], &b = boxes[t][1];
       for_cells(a, b, [&](size_t c) {
         for (uint32_t u : in_cell[c]) {
           if (u == t || (u < t && (!only || (*only)[u]))) continue;  // each pair once
-          glm::dvec3 ulo, uhi;
-          box(T[u], ulo, uhi);
+          const glm::dvec3 &ulo = boxes[u][0], &uhi = boxes[u][1];
           if (glm::any(glm::lessThan(uhi, a)) || glm::any(glm::greaterThan(ulo, b))) continue;
-          seen.push_back(u);
+          // Two boxes that meet share the cell of their overlap's lowest corner (each lies in it): the pair is
+          // tested there only, without collecting and deduplicating a triangle's candidates.
+          const glm::ivec3 home = cell_of(glm::max(a, ulo));
+          if ((size_t(home.z) * size_t(dims.y) + size_t(home.y)) * size_t(dims.x) + size_t(home.x) != c) continue;
+          if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
         }
       });
-      std::sort(seen.begin(), seen.end());
-      seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
-      for (uint32_t u : seen)
-        if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
     }
   });
   for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());

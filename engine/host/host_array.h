@@ -6,6 +6,7 @@
 // its time in page faults while the others wait. perf on the fields of the 199x250x249 head phantom at --max-size
 // 0.5 (2-core VM) found most of the stage's single-threaded time there: the sizing field's 194 MiB arrays of 3x3
 // forms (seven of them), the indicator fields' per-material distance arrays, the embedding's 350 MiB of fine points.
+// The mesh stages use it too (the element tables of mesh/grouped.h, crossing_triangles' boxes).
 //
 // HostArray<T> leaves trivially constructible elements uninitialised when sized or resized: the loop that writes
 // every element touches the pages, in parallel. filled() gives n copies of a value, written in parallel.
@@ -20,7 +21,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-namespace cpmesh::fields {
+namespace cpmesh {
 
 // std::allocator, except that a value-initialised element (vector(n), resize(n)) is default-initialised instead.
 template <class T>
@@ -90,4 +91,4 @@ std::vector<T> collect_in_order(int count, Visit&& visit) {
   return all;
 }
 
-}  // namespace cpmesh::fields
+}  // namespace cpmesh

@@ -1,4 +1,4 @@
-// Host arrays filled by every thread (fields/host_array.h), and the fields stage built on them: the same bits on one
+// Host arrays filled by every thread (host/host_array.h), and the fields stage built on them: the same bits on one
 // thread as on many.
 #include <doctest/doctest.h>
 
@@ -8,7 +8,7 @@
 #include <tbb/global_control.h>
 
 #include "fields/fields_stage.h"
-#include "fields/host_array.h"
+#include "host/host_array.h"
 #include "fields_volumes.h"
 
 using namespace cpmesh;
