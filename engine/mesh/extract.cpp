@@ -3,9 +3,14 @@
 #include "mesh/quality.h"
 
 #include <algorithm>
+#include <atomic>
 #include <numeric>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include "host/disjoint_sets.h"
+#include "host/host_array.h"
 
 namespace cpmesh::mesh {
 
@@ -154,40 +159,54 @@ InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std:
 
 std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                                 const std::vector<uint16_t>& material) {
-  std::vector<uint32_t> parent(T.tets.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
-    const uint32_t nb = adj.neighbour[tc];
-    if (nb != Adjacency::kHull && material[tc / 4] == material[nb / 4]) parent[find(tc / 4)] = find(nb / 4);
-  }
-  // Per component, its tet with the largest inscribed sphere: the volume mesher takes the centroid as the region's
-  // seed point, which must stay inside the region when the surface is smoothed afterwards.
-  std::vector<double> best(T.tets.size(), -1.0);
-  std::vector<uint32_t> rep_of(T.tets.size(), ~0u);
-  for (uint32_t t = 0; t < T.tets.size(); ++t) {
-    const auto& k = T.tets[t];
-    const glm::dvec3 &a = T.points[k[0]], &b = T.points[k[1]], &c = T.points[k[2]], &d = T.points[k[3]];
-    const double volume = tet_volume(a, b, c, d);
-    const double area = 0.5 * (glm::length(glm::cross(b - a, c - a)) + glm::length(glm::cross(b - a, d - a)) +
-                               glm::length(glm::cross(c - a, d - a)) + glm::length(glm::cross(c - b, d - b)));
-    const double inradius = area > 0 ? 3.0 * volume / area : 0.0;
-    const uint32_t root = find(t);
-    if (inradius > best[root]) best[root] = inradius, rep_of[root] = t;
+  // Components of face-adjacent tets of one material, joined on every thread; a component's root is its first tet.
+  const size_t n = T.tets.size();
+  DisjointSets sets(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, adj.neighbour.size(), size_t(1) << 14),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t tc = r.begin(); tc != r.end(); ++tc) {
+                        const uint32_t nb = adj.neighbour[tc];
+                        if (nb != Adjacency::kHull && nb / 4 > tc / 4 && material[tc / 4] == material[nb / 4])
+                          sets.join(uint32_t(tc / 4), nb / 4);
+                      }
+                    });
+  // Per tet, its root and inscribed sphere's radius. Per component, its tet with the largest inscribed sphere (the
+  // first such): the volume mesher takes the centroid as the region's seed point, which must stay inside the region
+  // when the surface is smoothed afterwards.
+  HostArray<uint32_t> root(n);
+  HostArray<double> inradius(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) {
+      const auto& k = T.tets[t];
+      const glm::dvec3 &a = T.points[k[0]], &b = T.points[k[1]], &c = T.points[k[2]], &d = T.points[k[3]];
+      const double volume = tet_volume(a, b, c, d);
+      const double area = 0.5 * (glm::length(glm::cross(b - a, c - a)) + glm::length(glm::cross(b - a, d - a)) +
+                                 glm::length(glm::cross(c - a, d - a)) + glm::length(glm::cross(c - b, d - b)));
+      inradius[t] = area > 0 ? 3.0 * volume / area : 0.0;
+      root[t] = sets.find(uint32_t(t));
+    }
+  });
+  // A root is its component's first tet, so each component's best starts there.
+  HostArray<double> best(n);
+  HostArray<uint32_t> rep_of(n);
+  for (size_t t = 0; t < n; ++t) {
+    const uint32_t c = root[t];
+    if (c == t || inradius[t] > best[c]) best[c] = inradius[t], rep_of[c] = uint32_t(t);
   }
   // Components open to the outside (a hull face with the same material beyond it, so no interface triangle there) are
   // outside every closed interface: the volume mesher drops them as exterior, and a seed there (a flat hull tet,
   // moved by the smoothing) could land inside a region and relabel it.
-  std::vector<uint8_t> unbounded(T.tets.size(), 0);
-  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc)
-    if (adj.neighbour[tc] == Adjacency::kHull && material_across(adj, hull, material, tc) == material[tc / 4])
-      unbounded[find(tc / 4)] = 1;
+  HostArray<uint8_t> unbounded = filled(n, uint8_t(0));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, adj.neighbour.size(), size_t(1) << 14),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t tc = r.begin(); tc != r.end(); ++tc)
+                        if (adj.neighbour[tc] == Adjacency::kHull &&
+                            material_across(adj, hull, material, uint32_t(tc)) == material[tc / 4])
+                          std::atomic_ref<uint8_t>(unbounded[root[tc / 4]]).store(1, std::memory_order_relaxed);
+                    });
   std::vector<uint32_t> reps;
-  for (uint32_t t = 0; t < T.tets.size(); ++t)
-    if (find(t) == t && !unbounded[t]) reps.push_back(rep_of[t]);
+  for (size_t t = 0; t < n; ++t)
+    if (root[t] == t && !unbounded[t]) reps.push_back(rep_of[t]);
   return reps;
 }
 

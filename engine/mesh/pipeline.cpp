@@ -272,15 +272,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.materials_closed += mr.odd_edges == 0;
     rep.materials.push_back(mr);
   }
-  {
-    char d[160];
-    std::snprintf(d, sizeof d, "radius ratio mean %.3f, min %.3f; %zu of %zu interfaces manifold%s",
-                  rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
-                  rep.interfaces.size(), rep.crossing_triangles ? "; triangles cross" : "");
-    stage_done(d);
-  }
-
-  // Outputs in physical units.
+  // Outputs in physical units (part of this stage's time).
   for (const auto& p : I.vertices) {
     const glm::dvec3 q = grid.to_physical(p);
     result.surfaces.vertices.push_back({q.x, q.y, q.z});
@@ -292,16 +284,27 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   result.particles.vertex_feature = kind;
   result.particles.vertex_scalars = {{"sizing", vertex_h}};
 
+  {
+    char d[160];
+    std::snprintf(d, sizeof d, "radius ratio mean %.3f, min %.3f; %zu of %zu interfaces manifold%s",
+                  rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
+                  rep.interfaces.size(), rep.crossing_triangles ? "; triangles cross" : "");
+    stage_done(d);
+  }
+
   if (!options.only_surfaces) {
     begin("volume mesh");
+    const auto volume_start = clock::now();
     std::vector<Region> regions;
     for (uint32_t t : component_representatives(T, adj, hull, material)) {
       glm::dvec3 c(0.0);
       for (uint32_t v : T.tets[t]) c += T.points[v];
       regions.push_back({c / 4.0, int(material[t]) + 1});
     }
+    rep.steps.push_back({"volume mesh", "region seeds", std::chrono::duration<double>(clock::now() - volume_start).count()});
     try {
       MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
+      const auto output_start = clock::now();
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
       rep.volume_one_run_because = meshes.one_run_because;
@@ -361,6 +364,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       const std::vector<TetStats> per_material = tet_stats_by_group(V.points, V.tets, material_of, labels.size());
       rep.volume = combined(per_material);
       for (size_t m = 0; m < labels.size(); ++m) rep.materials[m].tets = per_material[m];
+      rep.steps.push_back({"volume mesh", "output and statistics",
+                           std::chrono::duration<double>(clock::now() - output_start).count()});
     } catch (const std::exception& e) {
       rep.volume_error = e.what();
     }

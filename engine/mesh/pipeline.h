@@ -18,8 +18,9 @@
 // Three stages also report their steps (MeshReport::steps): "fields" = "indicator fields" + "embedding" + "sizing
 // field" (and a little unmeasured work between them); "delaunay and extraction" = "tetrahedralization" (the
 // Delaunay and the tets' adjacency, then the repair's point insertions into it: DelaunayMesh) + "extraction"
-// (the rest: the point list, tet labels, repair, interface triangles); "volume mesh" = "cutting into pieces" +
-// "TetGen runs" + "merge and seams" (volume_mesh.h) + the output's numbering and statistics.
+// (the rest: the point list, tet labels, repair, interface triangles); "volume mesh" = "region seeds" (a
+// seed point per material component) + "cutting into pieces" + "TetGen runs" + "merge and seams" (volume_mesh.h) +
+// "output and statistics" (the output's numbering, physical units and tet quality).
 #include <array>
 #include <functional>
 #include <stdexcept>

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <numeric>
 #include <stdexcept>
 #include <unordered_map>
 #include <unordered_set>
@@ -11,6 +10,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "host/disjoint_sets.h"
 #include "mesh/elements_around.h"
 #include "mesh/face_key.h"
 #include "mesh/quality.h"
@@ -67,12 +67,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   };
 
   // Each bad tet's cavity; overlapping ones merged (union-find over the bad tets, through the tets they claim).
-  std::vector<uint32_t> parent(bad.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  DisjointSets sets(bad.size());
   std::unordered_map<uint32_t, uint32_t> claimed;  // tet -> a bad tet's index whose cavity holds it
   for (uint32_t b = 0; b < bad.size(); ++b) {
     const uint32_t start = bad[b];
@@ -98,7 +93,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     }
     for (uint32_t t : cavity) {
       const auto [it, fresh] = claimed.try_emplace(t, b);
-      if (!fresh) parent[find(b)] = find(it->second);
+      if (!fresh) sets.join(b, it->second);
     }
   }
   // The merged cavities, in the order of their first bad tet; each tet's cavity.
@@ -107,14 +102,14 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
   std::unordered_map<uint32_t, uint32_t> cavity_of_tet;
   cavity_of_tet.reserve(claimed.size());
   for (uint32_t b = 0; b < bad.size(); ++b) {
-    const auto [it, fresh] = cavity_of_root.try_emplace(find(b), uint32_t(cavities.size()));
+    const auto [it, fresh] = cavity_of_root.try_emplace(sets.find(b), uint32_t(cavities.size()));
     if (fresh) cavities.push_back({{}, {}, region[bad[b]]});
   }
   {
     std::vector<std::pair<uint32_t, uint32_t>> members(claimed.begin(), claimed.end());
     std::sort(members.begin(), members.end());  // tet order: the same cavities whatever the hash map's order
     for (const auto& [t, b] : members) {
-      const uint32_t c = cavity_of_root[find(b)];
+      const uint32_t c = cavity_of_root[sets.find(b)];
       cavities[c].tets.push_back(t);
       cavity_of_tet.emplace(t, c);
     }

@@ -9,9 +9,11 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "host/disjoint_sets.h"
+#include "host/host_array.h"
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
-#include "mesh/face_key.h"
+#include "mesh/grouped.h"
 #include "mesh/quality.h"
 #include "mesh/tetgen.h"
 
@@ -302,20 +304,34 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   const Tets D = DelaunayMesh(D_points).tets(&adj);
   const size_t n_tets = D.tets.size();
 
-  // Walls: the tet faces that are boundary triangles, and on which side of each the material lies.
-  std::unordered_map<FaceKey, uint32_t, FaceKeyHash> triangle_of;
-  triangle_of.reserve(tri.size() * 2);
-  for (uint32_t i = 0; i < tri.size(); ++i) triangle_of.emplace(FaceKey(tri[i]), i);
-  std::vector<uint32_t> wall(n_tets * 4, UINT32_MAX);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t != r.end(); ++t)
-      for (int c = 0; c < 4; ++c) {
+  // Walls: the tet faces that are boundary triangles, and on which side of each the material lies. A tet is listed
+  // under its two smallest vertices (those on the boundary): the smallest vertex of each of its faces is one of them,
+  // so a boundary triangle's tets are among those listed under its own smallest vertex.
+  const Grouped around = group_by_key(
+      n_surface, n_tets,
+      [&](size_t t, auto&& add) {
+        std::array<uint32_t, 4> v = D.tets[t];
+        std::sort(v.begin(), v.end());
+        for (int k = 0; k < 2; ++k)
+          if (v[size_t(k)] < n_surface) add(v[size_t(k)]);
+      },
+      false);
+  HostArray<uint32_t> wall = filled(n_tets * 4, UINT32_MAX);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tri.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      std::array<uint32_t, 3> f = tri[i];
+      std::sort(f.begin(), f.end());
+      for (uint32_t t : around[f[0]]) {
         const auto& v = D.tets[t];
-        const std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
-        if (f[0] >= n_surface || f[1] >= n_surface || f[2] >= n_surface) continue;
-        const auto it = triangle_of.find(FaceKey(f));
-        if (it != triangle_of.end()) wall[t * 4 + size_t(c)] = it->second;
+        int opposite = -1, shared = 0;
+        for (int c = 0; c < 4; ++c) {
+          const uint32_t x = v[size_t(c)];
+          if (x == f[0] || x == f[1] || x == f[2]) ++shared;
+          else opposite = c;
+        }
+        if (shared == 3) wall[size_t(t) * 4 + size_t(opposite)] = uint32_t(i);
       }
+    }
   });
 
   // Flood: inside from the material's side of every wall, outside from the other side. Where the two meet across a
@@ -407,24 +423,20 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // gap rather than through it. (Clusters joined by shared vertices reached across the material's large inner tets:
   // on the 100^3 head phantom the separator then ran up to 10 voxels off its plane, along thin layers, and TetGen
   // left 13 times the slivers of the whole material there.)
-  std::vector<uint32_t> parent(n_tets);
-  for (uint32_t t = 0; t < n_tets; ++t) parent[t] = t;
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (uint32_t t = 0; t < n_tets; ++t)
-    if (doubt[t]) {
-      for (uint32_t c = 0; c < 4; ++c) {
-        const uint32_t nb = adj.neighbour[size_t(t) * 4 + c];
-        if (nb != Adjacency::kHull && doubt[nb / 4]) parent[find(t)] = find(nb / 4);
-      }
-    }
+  DisjointSets clusters(n_tets);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t)
+      if (doubt[t])
+        for (uint32_t c = 0; c < 4; ++c) {
+          const uint32_t nb = adj.neighbour[t * 4 + c];
+          if (nb != Adjacency::kHull && doubt[nb / 4]) clusters.join(uint32_t(t), nb / 4);
+        }
+  });
   std::vector<int> cluster_piece(n_tets, INT32_MAX);
   for (uint32_t t = 0; t < n_tets; ++t)
-    if (doubt[t]) cluster_piece[find(t)] = std::min(cluster_piece[find(t)], piece[t]);
+    if (doubt[t]) cluster_piece[clusters.find(t)] = std::min(cluster_piece[clusters.find(t)], piece[t]);
   for (uint32_t t = 0; t < n_tets; ++t)
-    if (doubt[t]) piece[t] = cluster_piece[find(t)];
+    if (doubt[t]) piece[t] = cluster_piece[clusters.find(t)];
   // Doubtful tets on an edge of a boundary triangle that is no Delaunay face (both ends gap vertices).
   auto edge_key = [](uint32_t a, uint32_t b) { return uint64_t(std::min(a, b)) << 32 | std::max(a, b); };
   std::unordered_map<uint64_t, uint32_t> gap_edge_tet;

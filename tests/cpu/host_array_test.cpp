@@ -1,13 +1,17 @@
-// Host arrays filled by every thread (host/host_array.h), and the fields stage built on them: the same bits on one
-// thread as on many.
+// Host arrays filled by every thread (host/host_array.h), disjoint sets joined by every thread (host/disjoint_sets.h),
+// and the fields stage built on them: the same bits on one thread as on many.
 #include <doctest/doctest.h>
 
 #include <cstring>
 #include <numeric>
+#include <random>
+
+#include <tbb/parallel_for.h>
 
 #include <tbb/global_control.h>
 
 #include "fields/fields_stage.h"
+#include "host/disjoint_sets.h"
 #include "host/host_array.h"
 #include "fields_volumes.h"
 
@@ -37,6 +41,36 @@ TEST_CASE("filled, copy_into and collect_in_order give what one loop gives, on 1
     }
   }
   CHECK(collect_in_order<int>(-1, [](int, auto&) { FAIL("no layer to visit"); }).empty());
+}
+
+TEST_CASE("disjoint sets joined on 8 threads: the sets of a serial union-find, each rooted at its smallest element") {
+  // Chains and random pairs over 200000 elements: many joins race on the same roots.
+  const uint32_t n = 200000;
+  std::mt19937 rng(7);
+  std::vector<std::pair<uint32_t, uint32_t>> joins;
+  for (uint32_t i = 0; i + 1 < n; i += 3) joins.push_back({i + 1, i});  // chains of two joins per three elements
+  for (int k = 0; k < 60000; ++k) joins.push_back({uint32_t(rng() % n), uint32_t(rng() % n)});
+  // Reference: plain union-find, then the smallest element of each set.
+  std::vector<uint32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x];
+    return x;
+  };
+  for (const auto& [a, b] : joins) parent[find(a)] = find(b);
+  std::vector<uint32_t> smallest(n, UINT32_MAX);
+  for (uint32_t x = 0; x < n; ++x) smallest[find(x)] = std::min(smallest[find(x)], x);
+  for (const int threads : {1, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    DisjointSets sets(n);
+    REQUIRE(sets.size() == n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, joins.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t j = r.begin(); j != r.end(); ++j) sets.join(joins[j].first, joins[j].second);
+    });
+    size_t wrong = 0;
+    for (uint32_t x = 0; x < n; ++x) wrong += sets.find(x) != smallest[find(x)];
+    CHECK(wrong == 0);
+  }
 }
 
 TEST_CASE("the fields stage does not depend on the thread count: wedge ball, thin parts, junctions") {

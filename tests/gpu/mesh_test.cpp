@@ -119,9 +119,11 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
                                                                    {"fields", "sizing field"},
                                                                    {"delaunay and extraction", "tetrahedralization"},
                                                                    {"delaunay and extraction", "extraction"},
+                                                                   {"volume mesh", "region seeds"},
                                                                    {"volume mesh", "cutting into pieces"},
                                                                    {"volume mesh", "TetGen runs"},
-                                                                   {"volume mesh", "merge and seams"}};
+                                                                   {"volume mesh", "merge and seams"},
+                                                                   {"volume mesh", "output and statistics"}};
   REQUIRE(r.report.steps.size() == steps.size());
   std::map<std::string, double> within;
   for (size_t i = 0; i < steps.size(); ++i) {
