@@ -1,6 +1,7 @@
 #include "mesh/volume_mesh.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <numeric>
@@ -11,7 +12,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/task_group.h>
 
+#include "host/host_array.h"
 #include "mesh/child_process.h"
 #include "mesh/elements_around.h"
 #include "mesh/face_key.h"
@@ -64,6 +68,112 @@ void add_pass_counts(MaterialMeshes& out, const TetImproveReport& improvement, c
 }
 
 }  // namespace
+
+// The part: the tets under the bound and kSeamRings rings around them (volume_mesh.h).
+constexpr int kSeamRings = 3;
+
+bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept,
+                 const QualityOptions& options, TetImproveReport& improvement, SliverSplitReport& split) {
+  const size_t n_tets = T.tets.size(), n_points = T.points.size();
+  const double bound = options.min_dihedral * M_PI / 180;
+  HostArray<uint8_t> part(n_tets);  // in the part
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) {
+      const auto& k = T.tets[t];
+      part[t] = dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0] < bound;
+    }
+  });
+  if (std::find(part.begin(), part.end(), uint8_t(1)) == part.end()) return false;
+  // Marks the vertices of the tets where `of` holds.
+  auto mark_vertices = [&](auto&& of) {
+    HostArray<uint8_t> mark = filled(n_points, uint8_t(0));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t != r.end(); ++t)
+        if (of(t))
+          for (uint32_t v : T.tets[t]) std::atomic_ref<uint8_t>(mark[v]).store(1, std::memory_order_relaxed);
+    });
+    return mark;
+  };
+  for (int ring = 0; ring < kSeamRings; ++ring) {
+    const HostArray<uint8_t> near = mark_vertices([&](size_t t) { return part[t] != 0; });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t != r.end(); ++t)
+        if (!part[t]) part[t] = near[T.tets[t][0]] | near[T.tets[t][1]] | near[T.tets[t][2]] | near[T.tets[t][3]];
+    });
+  }
+  const HostArray<uint8_t> in_part = mark_vertices([&](size_t t) { return part[t] != 0; });
+  const HostArray<uint8_t> outside = mark_vertices([&](size_t t) { return part[t] == 0; });
+  // The part's points: the fixed ones first (T's fixed points and those an outside tet uses), then the free ones.
+  std::vector<uint32_t> local(n_points, UINT32_MAX), global;
+  auto stays = [&](size_t v) { return v < fixed || outside[v]; };
+  for (int free = 0; free < 2; ++free)
+    for (size_t v = 0; v < n_points; ++v)
+      if (in_part[v] && stays(v) == (free == 0)) {
+        local[v] = uint32_t(global.size());
+        global.push_back(uint32_t(v));
+      }
+  if (global.empty()) return false;
+  size_t n_fixed = 0;
+  while (n_fixed < global.size() && stays(global[n_fixed])) ++n_fixed;
+  Tets S;
+  S.points.resize(global.size());
+  for (size_t i = 0; i < global.size(); ++i) S.points[i] = T.points[global[i]];
+  std::vector<size_t> part_tets;
+  for (size_t t = 0; t < n_tets; ++t)
+    if (part[t]) part_tets.push_back(t);
+  S.tets.resize(part_tets.size());
+  S.region.resize(part_tets.size());
+  tbb::parallel_for(size_t(0), part_tets.size(), [&](size_t i) {
+    const size_t t = part_tets[i];
+    for (int c = 0; c < 4; ++c) S.tets[i][size_t(c)] = local[T.tets[t][size_t(c)]];
+    S.region[i] = T.region[t];
+  });
+  // Kept: the interface triangles in the part, and every face of a part tet between fixed points (a superset of the
+  // faces it shares with outside tets, which all join points outside tets use).
+  std::vector<std::array<uint32_t, 3>> kept_here;
+  for (const auto& f : kept)
+    if (local[f[0]] != UINT32_MAX && local[f[1]] != UINT32_MAX && local[f[2]] != UINT32_MAX)
+      kept_here.push_back({local[f[0]], local[f[1]], local[f[2]]});
+  for (const auto& k : S.tets)
+    for (int c = 0; c < 4; ++c) {
+      const auto f = face_opposite(k, c);
+      if (f[0] < n_fixed && f[1] < n_fixed && f[2] < n_fixed) kept_here.push_back(f);
+    }
+  sliver_passes(S, n_fixed, kept_here, options, true, improvement, split);
+  // The smallest angle after the passes is the part's or an outside tet's.
+  const double outside_min = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), M_PI,
+      [&](const tbb::blocked_range<size_t>& r, double m) {
+        for (size_t t = r.begin(); t != r.end(); ++t)
+          if (!part[t]) {
+            const auto& k = T.tets[t];
+            m = std::min(m, dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0]);
+          }
+        return m;
+      },
+      [](double a, double b) { return std::min(a, b); });
+  improvement.min_dihedral_after = std::min(improvement.min_dihedral_after, outside_min * 180 / M_PI);
+  // Back into T: the part's free points after T's (T's old free points of the part, now unused, go below), its tets
+  // in place of the part's.
+  const auto base = uint32_t(n_points);
+  T.points.insert(T.points.end(), S.points.begin() + std::ptrdiff_t(n_fixed), S.points.end());
+  size_t out = 0;
+  for (size_t t = 0; t < n_tets; ++t)
+    if (!part[t]) {
+      T.tets[out] = T.tets[t];
+      T.region[out++] = T.region[t];
+    }
+  T.tets.resize(out + S.tets.size());
+  T.region.resize(out + S.tets.size());
+  tbb::parallel_for(size_t(0), S.tets.size(), [&](size_t i) {
+    auto k = S.tets[i];
+    for (auto& v : k) v = v < n_fixed ? global[v] : base + (v - uint32_t(n_fixed));
+    T.tets[out + i] = k;
+    T.region[out + i] = S.region.size() == S.tets.size() ? S.region[i] : 0;
+  });
+  remove_unused_points(T.points, T.tets, fixed);
+  return true;
+}
 
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
   if (V.region.size() != V.tets.size()) throw std::runtime_error("drop_pockets: TetGen gave no region attributes");
@@ -169,87 +279,116 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   const size_t runs = options.runs > 0 ? options.runs : tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   size_t boundary_total = 0;
   for (const Job& job : jobs) boundary_total += job.triangles.size();
-  std::vector<MaterialSplit> splits(jobs.size());
-  std::vector<std::pair<size_t, int>> to_split;  // (job, pieces)
+  std::vector<int> pieces_of(jobs.size(), 1);  // asked for; a refused cut leaves one run
   for (size_t j = 0; j < jobs.size() && runs > jobs.size(); ++j) {
     const size_t n = jobs[j].triangles.size();
     const double share = double(runs) * double(n) / double(std::max<size_t>(boundary_total, 1));
     const size_t k = std::min({size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1), size_t(1024)});
-    if (k >= 2) to_split.push_back({j, int(k)});
+    if (k >= 2) pieces_of[j] = int(k);
   }
+  // A slot per run asked for: a material's pieces (or the whole material, in its first slot, where the cut is
+  // refused), in material order. Each run gets the caller's points and, for a piece, its material's separator points
+  // after them (MaterialSplit::first_new = points.size()): the materials are cut and meshed at once, so no run waits
+  // for another material's cut. The merge numbers each material's separator points after the materials' before it.
+  std::vector<size_t> first_run(jobs.size() + 1, 0);
+  for (size_t j = 0; j < jobs.size(); ++j) first_run[j + 1] = first_run[j] + size_t(pieces_of[j]);
+  std::vector<Job> runs_of(first_run.back());
+  std::vector<size_t> job_of_run(runs_of.size());
+  std::vector<uint8_t> active(runs_of.size(), 0);
+  for (size_t j = 0; j < jobs.size(); ++j)
+    for (size_t r = first_run[j]; r < first_run[j + 1]; ++r) job_of_run[r] = j;
+  std::vector<MaterialSplit> splits(jobs.size());
+  std::vector<std::vector<glm::dvec3>> run_points(jobs.size());  // per cut material: points, then its separator points
   std::vector<std::string> unsplit(jobs.size());
-  tbb::parallel_for(size_t(0), to_split.size(), [&](size_t i) {
-    const auto [j, k] = to_split[i];
+  std::vector<MaterialMeshes> parts(runs_of.size());
+  std::vector<std::string> errors(runs_of.size());
+  auto input_of = [&](size_t r) -> const std::vector<glm::dvec3>& {
+    return runs_of[r].pieces > 1 ? run_points[job_of_run[r]] : points;
+  };
+  auto run_one = [&](size_t r) {
+    const Job& job = runs_of[r];
+    std::string what = "volume mesh of material " + std::to_string(labels[job.material]);
+    if (job.pieces > 1) what += ", piece " + std::to_string(job.piece + 1) + " of " + std::to_string(job.pieces);
+    try {
+      parts[r] = run_job(input_of(r), job, options, what);
+      errors[r].clear();
+    } catch (const std::exception& e) {
+      const std::string message = e.what();
+      errors[r] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
+    }
+  };
+  // Largest boundary first, so that the last run to start is a small one.
+  auto run_all = [&](std::vector<size_t> order) {
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return runs_of[a].triangles.size() > runs_of[b].triangles.size(); });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t k = range.begin(); k != range.end(); ++k) run_one(order[k]);
+    }, tbb::simple_partitioner());
+  };
+  // The time until the last cut is done (runs of materials already cut or not cut meanwhile), then until the last run.
+  std::atomic<int64_t> last_cut_ns{0};
+  auto cut_then_run = [&](size_t j) {
     const uint16_t m = jobs[j].material;
     std::vector<std::array<uint32_t, 3>> outward;  // the boundary with normals out of the material
     for (size_t t = 0; t < triangles.size(); ++t)
       if (pair[t][0] == m) outward.push_back(triangles[t]);
       else if (pair[t][1] == m) outward.push_back({triangles[t][0], triangles[t][2], triangles[t][1]});
-    try {
-      splits[j] = split_material(points, outward, k, uint32_t(points.size()));
-    } catch (const std::exception& e) {
-      splits[j] = {};
-      splits[j].refused = e.what();
-    }
-    if (!splits[j].refused.empty())
-      unsplit[j] = "material " + std::to_string(labels[m]) + " meshed whole: " + splits[j].refused;
-  });
-  // All points: the caller's, then each split's separator points (renumbered after the splits before it).
-  std::vector<glm::dvec3> all_points = points;
-  std::vector<Job> runs_of;  // the TetGen runs: whole materials and pieces
-  std::vector<size_t> job_of_run;
-  for (size_t j = 0; j < jobs.size(); ++j) {
     MaterialSplit& split = splits[j];
-    if (split.pieces.empty() || !split.refused.empty()) {
-      runs_of.push_back(jobs[j]);
-      job_of_run.push_back(j);
-      continue;
+    try {
+      split = split_material(points, outward, pieces_of[j], uint32_t(points.size()));
+    } catch (const std::exception& e) {
+      split = {};
+      split.refused = e.what();
     }
-    const auto shift = uint32_t(all_points.size() - points.size());
-    all_points.insert(all_points.end(), split.points.begin(), split.points.end());
+    const int64_t done = std::chrono::duration_cast<std::chrono::nanoseconds>(clock::now() - t_start).count();
+    for (int64_t seen = last_cut_ns.load(); seen < done && !last_cut_ns.compare_exchange_weak(seen, done);) {
+    }
+    if (!split.refused.empty() || split.pieces.empty()) {
+      unsplit[j] = "material " + std::to_string(labels[m]) + " meshed whole: " +
+                   (split.refused.empty() ? std::string("no pieces") : split.refused);
+      runs_of[first_run[j]] = jobs[j];
+      active[first_run[j]] = 1;
+      run_one(first_run[j]);
+      return;
+    }
+    run_points[j].reserve(points.size() + split.points.size());
+    run_points[j] = points;
+    run_points[j].insert(run_points[j].end(), split.points.begin(), split.points.end());
+    std::vector<size_t> mine;
     for (size_t p = 0; p < split.pieces.size(); ++p) {
-      Job piece{jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
-                uint16_t(split.pieces.size()), split.volumes[p]};
-      for (auto& t : piece.triangles)
-        for (auto& v : t) v = v < points.size() ? v : v + shift;
       // The material's own seeds are holes for nothing here; other materials' seeds carve their cavities.
-      runs_of.push_back(std::move(piece));
-      job_of_run.push_back(j);
+      const size_t r = first_run[j] + p;
+      runs_of[r] = {jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
+                    uint16_t(split.pieces.size()), split.volumes[p]};
+      active[r] = 1;
+      mine.push_back(r);
     }
-  }
-
-  const double cut_seconds = seconds_since(t_start);
-  const auto t_runs = clock::now();
-  std::vector<MaterialMeshes> parts(runs_of.size());
-  std::vector<std::string> errors(runs_of.size());
-  auto run_all = [&](const std::vector<size_t>& which) {
-    // Largest boundary first, so that the last run to start is a small one.
-    std::vector<size_t> order = which;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t a, size_t b) { return runs_of[a].triangles.size() > runs_of[b].triangles.size(); });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t k = range.begin(); k != range.end(); ++k) {
-        const Job& job = runs_of[order[k]];
-        std::string what = "volume mesh of material " + std::to_string(labels[job.material]);
-        if (job.pieces > 1) what += ", piece " + std::to_string(job.piece + 1) + " of " + std::to_string(job.pieces);
-        try {
-          parts[order[k]] = run_job(all_points, job, options, what);
-          errors[order[k]].clear();
-        } catch (const std::exception& e) {
-          const std::string message = e.what();
-          errors[order[k]] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
-        }
-      }
-    }, tbb::simple_partitioner());
+    run_all(mine);
   };
-  std::vector<size_t> everything(runs_of.size());
-  std::iota(everything.begin(), everything.end(), size_t(0));
-  run_all(everything);
+  // Materials to cut first, largest first, then the whole ones (largest first): the cuts start before the runs.
+  std::vector<size_t> job_order(jobs.size());
+  std::iota(job_order.begin(), job_order.end(), size_t(0));
+  std::stable_sort(job_order.begin(), job_order.end(), [&](size_t a, size_t b) {
+    if ((pieces_of[a] > 1) != (pieces_of[b] > 1)) return pieces_of[a] > 1;
+    return jobs[a].triangles.size() > jobs[b].triangles.size();
+  });
+  {
+    tbb::task_group group;
+    for (size_t j : job_order)
+      group.run([&, j] {
+        if (pieces_of[j] > 1) return cut_then_run(j);
+        runs_of[first_run[j]] = jobs[j];
+        active[first_run[j]] = 1;
+        run_one(first_run[j]);
+      });
+    group.wait();
+  }
+  const double cut_seconds = double(last_cut_ns.load()) * 1e-9;
   // A material with a failed piece is meshed whole instead: its pieces' runs are dropped, one run takes their place.
   std::vector<uint8_t> drop(runs_of.size(), 0);
   std::vector<size_t> again;
   for (size_t r = 0; r < runs_of.size(); ++r) {
-    if (errors[r].empty() || runs_of[r].pieces == 1) continue;
+    if (!active[r] || errors[r].empty() || runs_of[r].pieces == 1) continue;
     const size_t j = job_of_run[r];
     if (!unsplit[j].empty()) continue;
     unsplit[j] = "material " + std::to_string(labels[jobs[j].material]) + " meshed whole: " + errors[r];
@@ -258,6 +397,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     again.push_back(runs_of.size());
     runs_of.push_back(jobs[j]);
     job_of_run.push_back(j);
+    active.push_back(1);
   }
   parts.resize(runs_of.size());
   errors.resize(runs_of.size());
@@ -266,13 +406,17 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   // Runs in material order (pieces in their order); a dropped piece is left out.
   std::vector<size_t> kept;
   for (size_t r = 0; r < runs_of.size(); ++r)
-    if (!drop[r]) kept.push_back(r);
+    if (active[r] && !drop[r]) kept.push_back(r);
   std::stable_sort(kept.begin(), kept.end(), [&](size_t a, size_t b) { return job_of_run[a] < job_of_run[b]; });
   std::string one_run_because;
   std::string failed;
   for (size_t r : kept)
     if (!errors[r].empty()) failed += (failed.empty() ? "" : "; ") + errors[r];
+  // The merged points: the caller's, then the separator points of each material meshed in pieces, in material order.
   std::vector<MaterialMeshes> merged;
+  std::vector<size_t> merged_job;  // per merged run: its material's job (SIZE_MAX: the one run over all materials)
+  std::vector<size_t> separator_at(jobs.size(), 0);
+  std::vector<glm::dvec3> all_points = points;
   if (!failed.empty()) {
     // A material whose boundary is not closed (a thin layer's interface with a hole) leaks into the outside when
     // meshed alone, and TetGen drops its vertices; with every interface present the leak only reaches a neighbour's
@@ -280,18 +424,25 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     Job all{UINT16_MAX, triangles, seeds, {}};
     try {
       merged.push_back(run_job(points, all, options, "volume mesh of all materials in one run"));
+      merged_job.push_back(SIZE_MAX);
     } catch (const std::exception& e) {
       throw std::runtime_error(failed + "; then " + e.what());
     }
-    all_points = points;
     one_run_because = failed;
   } else {
-    for (size_t r : kept) merged.push_back(std::move(parts[r]));
+    for (size_t j = 0; j < jobs.size(); ++j)
+      if (unsplit[j].empty() && !splits[j].points.empty()) {
+        separator_at[j] = all_points.size();
+        all_points.insert(all_points.end(), splits[j].points.begin(), splits[j].points.end());
+      }
+    for (size_t r : kept) {
+      merged.push_back(std::move(parts[r]));
+      merged_job.push_back(job_of_run[r]);
+    }
   }
-  // Merge: each run's added points after the ones before it.
   MaterialMeshes out;
   out.cut_seconds = cut_seconds;
-  out.runs_seconds = seconds_since(t_runs);
+  out.runs_seconds = std::max(0.0, seconds_since(t_start) - cut_seconds);
   const auto t_seams = clock::now();
   out.one_run_because = one_run_because;
   for (const auto& u : unsplit)
@@ -299,21 +450,38 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   bool any_piece = false;
   for (const MaterialMeshes& r : merged)
     for (const auto& run : r.runs) any_piece = any_piece || run.pieces > 1;
-  for (size_t j = 0; j < jobs.size(); ++j)  // the separators of the materials meshed in pieces (others' are unused)
-    if (unsplit[j].empty() && failed.empty()) out.separator_points += splits[j].points.size();
+  out.separator_points = all_points.size() - points.size();  // of the materials meshed in pieces
+  // Merge: each run's added points after the ones before it. A run's input was the caller's points, and for a piece
+  // its material's separator points after them.
   Tets& T = out.tets;
-  T.points = all_points;
+  std::vector<size_t> point_base(merged.size() + 1, all_points.size()), tet_base(merged.size() + 1, 0);
+  for (size_t i = 0; i < merged.size(); ++i) {
+    point_base[i + 1] = point_base[i] + merged[i].tets.points.size();
+    tet_base[i + 1] = tet_base[i] + merged[i].tets.tets.size();
+  }
+  T.points = std::move(all_points);
+  T.points.resize(point_base.back());
+  T.tets.resize(tet_base.back());
+  T.region.resize(tet_base.back());
+  tbb::parallel_for(size_t(0), merged.size(), [&](size_t i) {
+    const Tets& R = merged[i].tets;
+    const bool piece = !merged[i].runs.empty() && merged[i].runs[0].pieces > 1;
+    const size_t separators = piece ? splits[merged_job[i]].points.size() : 0;
+    const auto n = uint32_t(points.size()), n_in = uint32_t(points.size() + separators);
+    const auto separator_base = uint32_t(piece ? separator_at[merged_job[i]] : 0), base = uint32_t(point_base[i]);
+    std::copy(R.points.begin(), R.points.end(), T.points.begin() + std::ptrdiff_t(point_base[i]));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, R.tets.size(), size_t(1) << 14), [&](const tbb::blocked_range<size_t>& rr) {
+      for (size_t t = rr.begin(); t != rr.end(); ++t) {
+        auto tet = R.tets[t];
+        for (auto& v : tet) v = v < n ? v : v < n_in ? separator_base + (v - n) : base + (v - n_in);
+        T.tets[tet_base[i] + t] = tet;
+        T.region[tet_base[i] + t] = R.region.size() == R.tets.size() ? R.region[t] : 0;
+      }
+    });
+  });
   bool first = true;
   for (const MaterialMeshes& r : merged) {
-    const auto n = uint32_t(all_points.size()), base = uint32_t(T.points.size());
-    T.points.insert(T.points.end(), r.tets.points.begin(), r.tets.points.end());
-    for (auto tet : r.tets.tets) {
-      for (auto& v : tet) v = v < n ? v : base + (v - n);
-      T.tets.push_back(tet);
-    }
-    T.region.insert(T.region.end(), r.tets.region.begin(), r.tets.region.end());
     out.runs.insert(out.runs.end(), r.runs.begin(), r.runs.end());
-    if (r.tets.region.size() != r.tets.tets.size()) T.region.resize(T.tets.size(), 0);
     out.improvement.min_dihedral_before = first ? r.improvement.min_dihedral_before
                                                 : std::min(out.improvement.min_dihedral_before, r.improvement.min_dihedral_before);
     out.improvement.min_dihedral_after = first ? r.improvement.min_dihedral_after
@@ -322,16 +490,18 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     out.sliver_split.failed += r.sliver_split.failed;
     first = false;
   }
+  merged.clear();
   if (any_piece) {
     // The pieces kept their separators as they were; now that the pieces are one mesh, the sliver passes may move
     // the separators' points and flip or refill across them (only the interface triangles are kept). The slivers
     // left are this pass's (`failed` is not summed with the runs': those the seams freed may be mended here).
     TetImproveReport seam;
     SliverSplitReport refill;
-    sliver_passes(T, points.size(), triangles, options, true, seam, refill);
-    add_pass_counts(out, seam, refill);
-    out.improvement.min_dihedral_after = seam.min_dihedral_after;
-    out.sliver_split.failed = refill.failed;
+    if (seam_passes(T, points.size(), triangles, options, seam, refill)) {
+      add_pass_counts(out, seam, refill);
+      out.improvement.min_dihedral_after = seam.min_dihedral_after;
+      out.sliver_split.failed = refill.failed;
+    }
   }
   out.seam_seconds = seconds_since(t_seams);
   return out;

@@ -16,10 +16,12 @@
 // pieces by planes (split_material.h), each piece a run bounded by its boundary triangles and the separators, which
 // both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only),
 // less any region its boundary closes off from outside (drop_pockets). A piece whose tets do not fill the volume its
-// boundary encloses, or a refused cut (split_material.h says when), meshes its material whole. After
-// the merge, where pieces were made, the sliver passes run once more over the whole mesh with the separators' points
-// free and only the interface triangles kept (a piece's own passes leave its cavities alone: its separators are
-// kept there). The result depends on the number of runs (with 0, on the thread limit), not otherwise on the thread
+// boundary encloses, or a refused cut (split_material.h says when), meshes its material whole. The materials
+// are cut and meshed at once: a whole material's run starts at once, a cut material's pieces as soon as its cut is
+// done (each piece gets the points and its own material's separator points; the merge numbers the separators'
+// points material by material). After the merge, where pieces were made, the sliver passes run once more with the
+// separators' points free and only the interface triangles kept (a piece's own passes leave its cavities alone: its
+// separators are kept there), on the part of the mesh around the tets under the bound (seam_passes). The result depends on the number of runs (with 0, on the thread limit), not otherwise on the thread
 // count.
 // A material whose boundary is not closed leaks into the outside when meshed alone; when any material fails, all
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
@@ -29,9 +31,9 @@
 //          seeds      a point inside every enclosed component, attribute = its material index + 1
 //                     (component_representatives in extract.h)
 //          labels     the materials' labels, for error messages
-// Outputs: tets.points  `points` first, unchanged, then the separators' points, then the points the runs added, run by
-//                       run in material order (the sliver remesh, remesh_slivers.h, removes the points it leaves
-//                       unused; others no tet uses may stay, such as a separator's when its material went whole)
+// Outputs: tets.points  `points` first, unchanged, then the separators' points of the materials meshed in pieces,
+//                       then the points the runs added, run by run in material order, then where the seams' passes
+//                       changed something the points of their part (those left unused go)
 //          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
 #include <array>
 #include <cstdint>
@@ -60,8 +62,10 @@ struct MaterialMeshes {
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
   std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
   size_t separator_points = 0;               // the lattice points the separators were made with (split_material.h)
-  // Where the time went: cutting materials into pieces; the runs (TetGen and their sliver passes, in parallel, with
-  // the whole-material reruns); merging, and the sliver passes over the seams where pieces were made.
+  // Where the time went. The materials are cut and meshed at once (a material's pieces start when its cut is done,
+  // whole materials at the start): cut_seconds until the last cut was done, runs_seconds from then until the last run
+  // (TetGen and its sliver passes; with the whole-material reruns) was done; then merging, and the sliver passes over
+  // the seams where pieces were made (seam_passes).
   double cut_seconds = 0, runs_seconds = 0, seam_seconds = 0;
 };
 
@@ -69,6 +73,19 @@ struct MaterialMeshes {
 // outside the closed surface `boundary` (oriented outwards), by a vote over the tets' faces on it, and the points
 // >= fixed they leave unused. A material's piece meshed without seeds uses it for pockets its boundary closes off.
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed);
+
+// The sliver passes of a run (improve_tets and split_slivers of smooth.h, remesh_slivers.h) over the part of T that
+// they can change, for the seams of a mesh merged from pieces: the passes act only on tets under
+// options.min_dihedral (moving their free vertices, refilling around them), so the part is those tets and three rings
+// of tets around them through shared vertices. The part is meshed as its own Tets: its points that a tet outside it
+// uses are fixed there, as are T's points < fixed, and its faces between fixed points are kept (with the triangles
+// `kept`), so no move, refill or cavity reaches past it. (The whole mesh's pass built its tables for every tet: on
+// the paper-size head cut in 8 on this 2-core machine, 12.4 s for the merge and seams against 4.3 s.) The part's
+// free points become new points of T after the others, T's points >= fixed that no tet uses then go, and the part's
+// new tets follow the tets outside it. improvement.min_dihedral_after is over all of T, split.failed counts T's
+// tets under the bound. Returns false, with T untouched, where no tet is under the bound.
+bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept, const QualityOptions& options,
+                 TetImproveReport& improvement, SliverSplitReport& split);
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                               const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,

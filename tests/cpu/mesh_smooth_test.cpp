@@ -10,6 +10,7 @@
 
 #include "fields/fields_stage.h"
 #include "fields_volumes.h"
+#include "mesh/elements_around.h"
 #include "mesh/extract.h"
 #include "mesh/quality.h"
 #include "mesh/smooth.h"
@@ -704,4 +705,126 @@ TEST_CASE("dihedral_range and tet_stats_by_group agree with the angles of each t
   CHECK(all.max_dihedral_deg == whole.max_dihedral_deg);
   CHECK(all.max_radius_edge == whole.max_radius_edge);
   CHECK(all.mean_radius_edge == doctest::Approx(whole.mean_radius_edge).epsilon(1e-12));
+}
+
+TEST_CASE("seam_passes: slivers in a large mesh are mended within their part, and every tet away from them stays") {
+  // An 8^3 cube lattice, each cube in six tets around its main diagonal (a conforming mesh), boundary points first
+  // (fixed), the boundary faces kept. Two interior points far apart are pushed along the diagonal until some of their
+  // tets are slivers (still positive).
+  const int n = 8;
+  auto id = [&](int x, int y, int z) { return (z * (n + 1) + y) * (n + 1) + x; };
+  std::vector<int> number((n + 1) * (n + 1) * (n + 1), -1);
+  std::vector<glm::dvec3> P;
+  for (int pass = 0; pass < 2; ++pass)
+    for (int z = 0; z <= n; ++z)
+      for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) {
+          const bool boundary = x == 0 || y == 0 || z == 0 || x == n || y == n || z == n;
+          if (boundary != (pass == 0)) continue;
+          number[size_t(id(x, y, z))] = int(P.size());
+          P.push_back(glm::dvec3(x, y, z));
+        }
+  const size_t fixed = size_t(std::count_if(P.begin(), P.end(), [&](const glm::dvec3& p) {
+    return p.x == 0 || p.y == 0 || p.z == 0 || p.x == n || p.y == n || p.z == n;
+  }));
+  mesh::Tets T;
+  const int perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (const auto& p : perm) {
+          std::array<int, 3> c = {x, y, z};
+          std::array<uint32_t, 4> t;
+          t[0] = uint32_t(number[size_t(id(c[0], c[1], c[2]))]);
+          for (int k = 0; k < 3; ++k) {
+            ++c[size_t(p[k])];
+            t[size_t(k) + 1] = uint32_t(number[size_t(id(c[0], c[1], c[2]))]);
+          }
+          T.tets.push_back(t);
+          T.region.push_back(1);
+        }
+  T.points = P;
+  for (auto& t : T.tets)
+    if (orient(T.points, t) < 0) std::swap(t[0], t[1]);
+  const double volume = orient_like_first(T.points, T.tets).second;
+  std::map<std::array<uint32_t, 3>, int> uses;
+  for (const auto& t : T.tets)
+    for (int c = 0; c < 4; ++c) {
+      auto f = mesh::face_opposite(t, c);
+      std::sort(f.begin(), f.end());
+      ++uses[f];
+    }
+  std::vector<std::array<uint32_t, 3>> kept;
+  for (const auto& [f, k] : uses)
+    if (k == 1) kept.push_back(f);
+  REQUIRE(kept.size() == size_t(6 * 2 * n * n));
+  const glm::dvec3 pushed[2] = {glm::dvec3(2, 2, 2), glm::dvec3(6, 5, 6)};
+  for (const auto& p : pushed) T.points[size_t(number[size_t(id(int(p.x), int(p.y), int(p.z)))])] += glm::dvec3(0.85, 0, 0);
+  for (const auto& t : T.tets) REQUIRE(orient(T.points, t) > 0);
+  mesh::QualityOptions options;
+  const size_t slivers = mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral);
+  REQUIRE(slivers > 0);
+  // The tets with no point within 3 of a pushed one, by their corners' coordinates.
+  auto corners = [](const std::vector<glm::dvec3>& Q, const std::array<uint32_t, 4>& t) {
+    std::array<std::array<double, 3>, 4> c;
+    for (int k = 0; k < 4; ++k) c[size_t(k)] = {Q[t[size_t(k)]].x, Q[t[size_t(k)]].y, Q[t[size_t(k)]].z};
+    std::sort(c.begin(), c.end());
+    return c;
+  };
+  std::vector<std::array<std::array<double, 3>, 4>> away;
+  for (const auto& t : T.tets) {
+    double d = 1e9;
+    for (uint32_t v : t)
+      for (const auto& p : pushed) d = std::min(d, glm::length(T.points[v] - p));
+    if (d > 3.5) away.push_back(corners(T.points, t));
+  }
+  REQUIRE(away.size() > T.tets.size() / 3);
+  const auto before = T;
+  mesh::TetImproveReport improvement;
+  mesh::SliverSplitReport split;
+  REQUIRE(mesh::seam_passes(T, fixed, kept, options, improvement, split));
+  MESSAGE(slivers << " slivers; after the passes " << split.failed << " under the bound, min dihedral "
+                  << improvement.min_dihedral_after << ", " << T.tets.size() << " tets (" << before.tets.size()
+                  << " before), " << improvement.moves << " moves");
+  CHECK(split.failed == mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral));
+  CHECK(split.failed == 0);
+  CHECK(improvement.min_dihedral_after == doctest::Approx(mesh::tet_stats(T.points, T.tets).min_dihedral_deg));
+  CHECK(std::equal(before.points.begin(), before.points.begin() + std::ptrdiff_t(fixed), T.points.begin()));
+  REQUIRE(T.region.size() == T.tets.size());
+  CHECK(std::all_of(T.region.begin(), T.region.end(), [](int r) { return r == 1; }));
+  // Every tet positive, the same volume, conforming with the same boundary, every point used.
+  double after = 0;
+  std::map<std::array<uint32_t, 3>, int> now;
+  std::vector<uint8_t> used(T.points.size(), 0);
+  for (const auto& t : T.tets) {
+    CHECK(orient(T.points, t) > 0);
+    after += orient(T.points, t);
+    for (int c = 0; c < 4; ++c) {
+      auto f = mesh::face_opposite(t, c);
+      std::sort(f.begin(), f.end());
+      ++now[f];
+    }
+    for (uint32_t v : t) used[v] = 1;
+  }
+  CHECK(after == doctest::Approx(volume).epsilon(1e-12));
+  std::vector<std::array<uint32_t, 3>> boundary;
+  size_t odd = 0;
+  for (const auto& [f, k] : now) {
+    if (k == 1) boundary.push_back(f);
+    odd += k > 2;
+  }
+  CHECK(odd == 0);
+  CHECK(boundary == kept);
+  CHECK(std::count(used.begin(), used.end(), uint8_t(0)) == 0);
+  // Away from the slivers nothing changed.
+  std::set<std::array<std::array<double, 3>, 4>> have;
+  for (const auto& t : T.tets) have.insert(corners(T.points, t));
+  size_t missing = 0;
+  for (const auto& c : away) missing += have.count(c) == 0;
+  CHECK(missing == 0);
+  // Nothing under the bound: nothing to do, T untouched.
+  const auto settled = T;
+  CHECK_FALSE(mesh::seam_passes(T, fixed, kept, options, improvement, split));
+  CHECK(T.points == settled.points);
+  CHECK(T.tets == settled.tets);
 }
