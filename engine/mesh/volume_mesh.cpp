@@ -13,7 +13,6 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/task_group.h>
 
 #include "host/host_array.h"
 #include "mesh/child_process.h"
@@ -128,8 +127,9 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
     for (int c = 0; c < 4; ++c) S.tets[i][size_t(c)] = local[T.tets[t][size_t(c)]];
     S.region[i] = T.region[t];
   });
-  // Kept: the interface triangles in the part, and every face of a part tet between fixed points (a superset of the
-  // faces it shares with outside tets, which all join points outside tets use).
+  // Kept: the interface triangles in the part, and every face of a part tet between points that outside tets use (a
+  // superset of the faces it shares with them). Not the other faces between fixed points: a separator's face that
+  // joins interface points only is one, and the passes over the whole mesh may flip or refill across it.
   std::vector<std::array<uint32_t, 3>> kept_here;
   for (const auto& f : kept)
     if (local[f[0]] != UINT32_MAX && local[f[1]] != UINT32_MAX && local[f[2]] != UINT32_MAX)
@@ -137,7 +137,7 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
   for (const auto& k : S.tets)
     for (int c = 0; c < 4; ++c) {
       const auto f = face_opposite(k, c);
-      if (f[0] < n_fixed && f[1] < n_fixed && f[2] < n_fixed) kept_here.push_back(f);
+      if (outside[global[f[0]]] && outside[global[f[1]]] && outside[global[f[2]]]) kept_here.push_back(f);
     }
   sliver_passes(S, n_fixed, kept_here, options, true, improvement, split);
   // The smallest angle after the passes is the part's or an outside tet's.
@@ -325,9 +325,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       for (size_t k = range.begin(); k != range.end(); ++k) run_one(order[k]);
     }, tbb::simple_partitioner());
   };
-  // The time until the last cut is done (runs of materials already cut or not cut meanwhile), then until the last run.
-  std::atomic<int64_t> last_cut_ns{0};
-  auto cut_then_run = [&](size_t j) {
+  // Cuts a material into its slots' runs: its pieces, or itself whole where the cut is refused.
+  auto cut = [&](size_t j) {
     const uint16_t m = jobs[j].material;
     std::vector<std::array<uint32_t, 3>> outward;  // the boundary with normals out of the material
     for (size_t t = 0; t < triangles.size(); ++t)
@@ -340,50 +339,46 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       split = {};
       split.refused = e.what();
     }
-    const int64_t done = std::chrono::duration_cast<std::chrono::nanoseconds>(clock::now() - t_start).count();
-    for (int64_t seen = last_cut_ns.load(); seen < done && !last_cut_ns.compare_exchange_weak(seen, done);) {
-    }
     if (!split.refused.empty() || split.pieces.empty()) {
       unsplit[j] = "material " + std::to_string(labels[m]) + " meshed whole: " +
                    (split.refused.empty() ? std::string("no pieces") : split.refused);
       runs_of[first_run[j]] = jobs[j];
       active[first_run[j]] = 1;
-      run_one(first_run[j]);
       return;
     }
     run_points[j].reserve(points.size() + split.points.size());
     run_points[j] = points;
     run_points[j].insert(run_points[j].end(), split.points.begin(), split.points.end());
-    std::vector<size_t> mine;
     for (size_t p = 0; p < split.pieces.size(); ++p) {
       // The material's own seeds are holes for nothing here; other materials' seeds carve their cavities.
       const size_t r = first_run[j] + p;
       runs_of[r] = {jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
                     uint16_t(split.pieces.size()), split.volumes[p]};
       active[r] = 1;
-      mine.push_back(r);
     }
-    run_all(mine);
   };
-  // Materials to cut first, largest first, then the whole ones (largest first): the cuts start before the runs.
-  std::vector<size_t> job_order(jobs.size());
-  std::iota(job_order.begin(), job_order.end(), size_t(0));
-  std::stable_sort(job_order.begin(), job_order.end(), [&](size_t a, size_t b) {
-    if ((pieces_of[a] > 1) != (pieces_of[b] > 1)) return pieces_of[a] > 1;
-    return jobs[a].triangles.size() > jobs[b].triangles.size();
-  });
-  {
-    tbb::task_group group;
-    for (size_t j : job_order)
-      group.run([&, j] {
-        if (pieces_of[j] > 1) return cut_then_run(j);
-        runs_of[first_run[j]] = jobs[j];
-        active[first_run[j]] = 1;
-        run_one(first_run[j]);
-      });
-    group.wait();
+  // The cuts first, all at once (each Delaunay on every core it gets), then every run, largest first. (Starting a
+  // material's pieces as soon as its own cut was done left the largest cut few threads beside the other pieces'
+  // TetGen children: on the paper-size head on 16 cores the last cut then ended at 34 s instead of 9.)
+  std::vector<size_t> to_cut;
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    if (pieces_of[j] > 1) {
+      to_cut.push_back(j);
+    } else {
+      runs_of[first_run[j]] = jobs[j];
+      active[first_run[j]] = 1;
+    }
   }
-  const double cut_seconds = double(last_cut_ns.load()) * 1e-9;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, to_cut.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) cut(to_cut[i]);
+  }, tbb::simple_partitioner());
+  const double cut_seconds = seconds_since(t_start);
+  {
+    std::vector<size_t> everything;
+    for (size_t r = 0; r < runs_of.size(); ++r)
+      if (active[r]) everything.push_back(r);
+    run_all(everything);
+  }
   // A material with a failed piece is meshed whole instead: its pieces' runs are dropped, one run takes their place.
   std::vector<uint8_t> drop(runs_of.size(), 0);
   std::vector<size_t> again;

@@ -17,9 +17,8 @@
 // both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only),
 // less any region its boundary closes off from outside (drop_pockets). A piece whose tets do not fill the volume its
 // boundary encloses, or a refused cut (split_material.h says when), meshes its material whole. The materials
-// are cut and meshed at once: a whole material's run starts at once, a cut material's pieces as soon as its cut is
-// done (each piece gets the points and its own material's separator points; the merge numbers the separators'
-// points material by material). After the merge, where pieces were made, the sliver passes run once more with the
+// are cut first, all at once, then every run starts, largest first (each piece gets the points and its own
+// material's separator points; the merge numbers the separators' points material by material). After the merge, where pieces were made, the sliver passes run once more with the
 // separators' points free and only the interface triangles kept (a piece's own passes leave its cavities alone: its
 // separators are kept there), on the part of the mesh around the tets under the bound (seam_passes). The result depends on the number of runs (with 0, on the thread limit), not otherwise on the thread
 // count.
@@ -62,10 +61,8 @@ struct MaterialMeshes {
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
   std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
   size_t separator_points = 0;               // the lattice points the separators were made with (split_material.h)
-  // Where the time went. The materials are cut and meshed at once (a material's pieces start when its cut is done,
-  // whole materials at the start): cut_seconds until the last cut was done, runs_seconds from then until the last run
-  // (TetGen and its sliver passes; with the whole-material reruns) was done; then merging, and the sliver passes over
-  // the seams where pieces were made (seam_passes).
+  // Where the time went: cutting materials into pieces; the runs (TetGen and their sliver passes, in parallel, with
+  // the whole-material reruns); merging, and the sliver passes over the seams where pieces were made (seam_passes).
   double cut_seconds = 0, runs_seconds = 0, seam_seconds = 0;
 };
 
@@ -78,8 +75,8 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
 // they can change, for the seams of a mesh merged from pieces: the passes act only on tets under
 // options.min_dihedral (moving their free vertices, refilling around them), so the part is those tets and three rings
 // of tets around them through shared vertices. The part is meshed as its own Tets: its points that a tet outside it
-// uses are fixed there, as are T's points < fixed, and its faces between fixed points are kept (with the triangles
-// `kept`), so no move, refill or cavity reaches past it. (The whole mesh's pass built its tables for every tet: on
+// uses are fixed there, as are T's points < fixed, and its faces between points that outside tets use are kept (with
+// the triangles `kept`), so no move, refill or cavity reaches past it. (The whole mesh's pass built its tables for every tet: on
 // the paper-size head cut in 8 on this 2-core machine, 12.4 s for the merge and seams against 4.3 s.) The part's
 // free points become new points of T after the others, T's points >= fixed that no tet uses then go, and the part's
 // new tets follow the tets outside it. improvement.min_dihedral_after is over all of T, split.failed counts T's
