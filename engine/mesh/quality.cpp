@@ -251,10 +251,14 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
   const uint32_t nt = uint32_t(T.size());
   HostArray<double> lengths(nt);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t t = r.begin(); t < r.end(); ++t) lengths[t] = glm::length(V[T[t][1]] - V[T[t][0]]);
+    for (uint32_t t = r.begin(); t < r.end(); ++t) {
+      const double l = glm::length(V[T[t][1]] - V[T[t][0]]);
+      lengths[t] = l == l ? l : std::numeric_limits<double>::infinity();  // NaN would break nth_element's order
+    }
   });
   std::nth_element(lengths.begin(), lengths.begin() + std::ptrdiff_t(nt / 2), lengths.end());
   double width = std::max(2 * lengths[nt / 2], 1e-9);
+  if (!std::isfinite(width)) width = 1.0;  // a median edge through a non-finite vertex: the cell count sets it below
   auto box = [&](const std::array<uint32_t, 3>& t, glm::dvec3& lo, glm::dvec3& hi) {
     lo = glm::min(V[t[0]], glm::min(V[t[1]], V[t[2]]));
     hi = glm::max(V[t[0]], glm::max(V[t[1]], V[t[2]]));
@@ -263,7 +267,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
   // the smoothing calls this once per round on meshes of millions of triangles). At most 2 cells per triangle: a
   // wider cell where the surface is sparse in a large box.
   using Bounds = std::array<glm::dvec3, 2>;
-  const auto [lo, hi] = tbb::parallel_reduce(
+  const Bounds bounds = tbb::parallel_reduce(
       tbb::blocked_range<uint32_t>(0, nt, 4096),
       Bounds{glm::dvec3(std::numeric_limits<double>::infinity()), glm::dvec3(-std::numeric_limits<double>::infinity())},
       [&](const tbb::blocked_range<uint32_t>& r, Bounds b) {
@@ -276,6 +280,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
         return b;
       },
       [](const Bounds& a, const Bounds& b) { return Bounds{glm::min(a[0], b[0]), glm::max(a[1], b[1])}; });
+  const glm::dvec3 lo = bounds[0], hi = bounds[1];  // (not a structured binding: lambdas below capture them)
   if (!(lo.x <= hi.x)) return out;
   const glm::dvec3 extent = hi - lo;
   const double max_cells = 2.0 * double(nt) + 64.0;
@@ -287,11 +292,14 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
     const glm::dvec3 c = glm::clamp(glm::floor((p - lo) / width), glm::dvec3(0.0), glm::dvec3(dims - 1));
     return glm::ivec3(c.x == c.x ? c.x : 0.0, c.y == c.y ? c.y : 0.0, c.z == c.z ? c.z : 0.0);
   };
+  auto cell_index = [&](const glm::ivec3& c) {
+    return (size_t(c.z) * size_t(dims.y) + size_t(c.y)) * size_t(dims.x) + size_t(c.x);
+  };
   auto for_cells = [&](const glm::dvec3& a, const glm::dvec3& b, auto&& visit) {
     const glm::ivec3 ca = cell_of(a), cb = cell_of(b);
     for (int z = ca.z; z <= cb.z; ++z)
       for (int y = ca.y; y <= cb.y; ++y)
-        for (int x = ca.x; x <= cb.x; ++x) visit((size_t(z) * size_t(dims.y) + size_t(y)) * size_t(dims.x) + size_t(x));
+        for (int x = ca.x; x <= cb.x; ++x) visit(cell_index({x, y, z}));
   };
   const Grouped in_cell = group_by_key(
       cells, nt,
@@ -319,8 +327,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
           if (glm::any(glm::lessThan(uhi, a)) || glm::any(glm::greaterThan(ulo, b))) continue;
           // Two boxes that meet share the cell of their overlap's lowest corner (each lies in it): the pair is
           // tested there only, without collecting and deduplicating a triangle's candidates.
-          const glm::ivec3 home = cell_of(glm::max(a, ulo));
-          if ((size_t(home.z) * size_t(dims.y) + size_t(home.y)) * size_t(dims.x) + size_t(home.x) != c) continue;
+          if (cell_index(cell_of(glm::max(a, ulo))) != c) continue;
           if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
         }
       });

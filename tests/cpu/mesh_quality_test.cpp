@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "io/synth_volumes.h"
@@ -63,6 +64,13 @@ TEST_CASE("crossing_triangles: triangles through each other, and shared or touch
   CHECK(mesh::crossing_triangles(V, T, &only) == std::vector<std::array<uint32_t, 2>>{{5, 6}});
   only = {0, 0, 1, 1, 1, 0, 0, 1, 1};
   CHECK(mesh::crossing_triangles(V, T, &only).empty());
+  // Most triangles through a non-finite vertex (their median edge is not a number): the finite pair is still found.
+  std::vector<glm::dvec3> W = V;
+  W.push_back(glm::dvec3(std::nan(""), 0, 0));
+  W.push_back(glm::dvec3(std::numeric_limits<double>::infinity(), 0, 0));
+  std::vector<std::array<uint32_t, 3>> U = {T[0], T[1]};
+  for (uint32_t k = 0; k < 6; ++k) U.push_back({23 + (k & 1), k + 6, k + 7});
+  CHECK(mesh::crossing_triangles(W, U) == std::vector<std::array<uint32_t, 2>>{{0, 1}});
 }
 
 TEST_CASE("crossing_triangles: the grid finds every crossing pair that testing all pairs finds, dense and sparse") {
