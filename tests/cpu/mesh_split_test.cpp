@@ -323,6 +323,69 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
   }
 }
 
+TEST_CASE("mesh_materials: a refused cut meshes its material whole beside another material's pieces") {
+  // Material 1 a shell 0.7 thick between spheres of radius 10 and 9.3 (its cut is refused: thin layers), material 2
+  // the ball inside (cut in pieces). The merge numbers material 2's separator points right after the surfaces'.
+  const Sphere outer = icosphere(10.0, 4, true), inner = icosphere(9.3, 4, true);
+  std::vector<glm::dvec3> points = outer.points;
+  std::vector<std::array<uint32_t, 3>> triangles = outer.triangles;
+  std::vector<std::array<uint16_t, 2>> pair(outer.triangles.size(), {0, 1});
+  const auto base = uint32_t(points.size());
+  points.insert(points.end(), inner.points.begin(), inner.points.end());
+  for (auto t : inner.triangles) {
+    for (auto& v : t) v += base;
+    triangles.push_back(t);
+    pair.push_back({1, 2});
+  }
+  const std::vector<mesh::Region> seeds = {{glm::dvec3(9.65, 0.0, 0.0), 2}, {glm::dvec3(0.0), 3}};
+  const std::vector<uint16_t> labels = {0, 7, 9};
+  mesh::QualityOptions options;
+  options.runs = 6;
+  options.min_piece_triangles = 1000;
+  const auto r = mesh::mesh_materials(points, triangles, pair, seeds, labels, options);
+  REQUIRE(r.unsplit_because.size() == 1);
+  CHECK(r.unsplit_because[0].find("material 7 meshed whole") == 0);
+  CHECK(r.unsplit_because[0].find("thin layers") != std::string::npos);
+  CHECK(r.one_run_because.empty());
+  size_t whole = 0, pieces = 0;
+  for (const auto& run : r.runs) {
+    whole += run.material == 1 && run.pieces == 1;
+    pieces += run.material == 2 && run.pieces > 1;
+  }
+  CHECK(whole == 1);
+  CHECK(pieces >= 2);
+  CHECK(r.separator_points > 0);
+  // The runs in material order; the surfaces' points first and unchanged; the volumes per material; conforming.
+  CHECK(r.runs.front().material == 1);
+  const mesh::Tets& T = r.tets;
+  REQUIRE(T.points.size() >= points.size());
+  CHECK(std::equal(points.begin(), points.end(), T.points.begin()));
+  REQUIRE(T.region.size() == T.tets.size());
+  std::map<int, double> volume;
+  std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;
+  for (size_t i = 0; i < T.tets.size(); ++i) {
+    volume[T.region[i]] += tet_volume(T.points, T.tets[i]);
+    for (int c = 0; c < 4; ++c) {
+      std::array<uint32_t, 3> f = {T.tets[i][size_t((c + 1) % 4)], T.tets[i][size_t((c + 2) % 4)],
+                                   T.tets[i][size_t((c + 3) % 4)]};
+      std::sort(f.begin(), f.end());
+      faces[f].insert(T.region[i]);
+    }
+  }
+  CHECK(volume.size() == 2);
+  CHECK(volume[2] == doctest::Approx(-enclosed_volume(outer.points, outer.triangles) +
+                                     enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+  CHECK(volume[3] == doctest::Approx(-enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+  size_t unpaired = 0, mixed = 0;
+  for (const auto& [f, who] : faces) {
+    unpaired += who.size() == 1;
+    mixed += who.size() == 2 && *who.begin() != *who.rbegin();
+  }
+  CHECK(unpaired == outer.triangles.size());
+  CHECK(mixed == inner.triangles.size());
+  CHECK(r.sliver_split.failed == mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral));
+}
+
 TEST_CASE("split_material: boundary triangles that are no Delaunay faces are seen, and the pieces stay closed") {
   // Flipping an icosphere edge leaves the two new triangles without an empty sphere (the old diagonal had it): 20
   // flips near the plane x = 0 where the cut goes (the sphere's extents tie, so the axis is x).
