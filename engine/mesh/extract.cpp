@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <numeric>
 
 #include <tbb/blocked_range.h>
@@ -182,7 +183,8 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
       const double volume = tet_volume(a, b, c, d);
       const double area = 0.5 * (glm::length(glm::cross(b - a, c - a)) + glm::length(glm::cross(b - a, d - a)) +
                                  glm::length(glm::cross(c - a, d - a)) + glm::length(glm::cross(c - b, d - b)));
-      inradius[t] = area > 0 ? 3.0 * volume / area : 0.0;
+      const double r = area > 0 ? 3.0 * volume / area : 0.0;
+      inradius[t] = r == r ? r : -std::numeric_limits<double>::infinity();  // a non-finite tet never represents
       root[t] = sets.find(uint32_t(t));
     }
   });

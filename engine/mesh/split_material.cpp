@@ -1,6 +1,7 @@
 #include "mesh/split_material.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -329,7 +330,12 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
           if (x == f[0] || x == f[1] || x == f[2]) ++shared;
           else opposite = c;
         }
-        if (shared == 3) wall[size_t(t) * 4 + size_t(opposite)] = uint32_t(i);
+        if (shared != 3) continue;
+        // The smallest index where two boundary triangles are one face (as the first one a map would keep).
+        std::atomic_ref<uint32_t> w(wall[size_t(t) * 4 + size_t(opposite)]);
+        for (uint32_t seen = w.load(std::memory_order_relaxed);
+             uint32_t(i) < seen && !w.compare_exchange_weak(seen, uint32_t(i), std::memory_order_relaxed);) {
+        }
       }
     }
   });

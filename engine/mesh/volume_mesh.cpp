@@ -73,6 +73,7 @@ constexpr int kSeamRings = 3;
 
 bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept,
                  const QualityOptions& options, TetImproveReport& improvement, SliverSplitReport& split) {
+  if (T.region.size() != T.tets.size()) throw std::invalid_argument("seam_passes: one region per tet");
   const size_t n_tets = T.tets.size(), n_points = T.points.size();
   const double bound = options.min_dihedral * M_PI / 180;
   HostArray<uint8_t> part(n_tets);  // in the part
@@ -382,12 +383,13 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   // A material with a failed piece is meshed whole instead: its pieces' runs are dropped, one run takes their place.
   std::vector<uint8_t> drop(runs_of.size(), 0);
   std::vector<size_t> again;
-  for (size_t r = 0; r < runs_of.size(); ++r) {
+  const size_t first_pass = runs_of.size();  // (the reruns are appended below)
+  for (size_t r = 0; r < first_pass; ++r) {
     if (!active[r] || errors[r].empty() || runs_of[r].pieces == 1) continue;
     const size_t j = job_of_run[r];
     if (!unsplit[j].empty()) continue;
     unsplit[j] = "material " + std::to_string(labels[jobs[j].material]) + " meshed whole: " + errors[r];
-    for (size_t q = 0; q < runs_of.size(); ++q)
+    for (size_t q = 0; q < first_pass; ++q)
       if (job_of_run[q] == j) drop[q] = 1;
     again.push_back(runs_of.size());
     runs_of.push_back(jobs[j]);
