@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <map>
-#include <numeric>
 #include <unordered_map>
 #include <stdexcept>
 #include <string>

@@ -66,6 +66,51 @@ double tet_volume(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4
   return std::fabs(glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]))) / 6;
 }
 
+// Two nested spheres as interfaces: the outer one between materials 0 and 1, the inner one between 1 and 2.
+struct Nested {
+  std::vector<glm::dvec3> points;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  std::vector<std::array<uint16_t, 2>> pair;
+};
+Nested nested(const Sphere& outer, const Sphere& inner) {
+  Nested n{outer.points, outer.triangles, std::vector<std::array<uint16_t, 2>>(outer.triangles.size(), {0, 1})};
+  const auto base = uint32_t(n.points.size());
+  n.points.insert(n.points.end(), inner.points.begin(), inner.points.end());
+  for (auto t : inner.triangles) {
+    for (auto& v : t) v += base;
+    n.triangles.push_back(t);
+    n.pair.push_back({1, 2});
+  }
+  return n;
+}
+
+// The tets of material 1 (region 2) fill the shell between the spheres, those of material 2 (region 3) the inner ball.
+void check_nested_volumes(std::map<int, double>& volume, const Sphere& outer, const Sphere& inner) {
+  CHECK(volume.size() == 2);
+  CHECK(volume[2] == doctest::Approx(-enclosed_volume(outer.points, outer.triangles) +
+                                     enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+  CHECK(volume[3] == doctest::Approx(-enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+}
+
+// Per region the volume of its tets, and per face (its vertices sorted) the regions of the tets on it.
+struct Tally {
+  std::map<int, double> volume;
+  std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;
+};
+Tally tally(const mesh::Tets& T) {
+  Tally out;
+  for (size_t i = 0; i < T.tets.size(); ++i) {
+    out.volume[T.region[i]] += tet_volume(T.points, T.tets[i]);
+    for (int c = 0; c < 4; ++c) {
+      std::array<uint32_t, 3> f = {T.tets[i][size_t((c + 1) % 4)], T.tets[i][size_t((c + 2) % 4)],
+                                   T.tets[i][size_t((c + 3) % 4)]};
+      std::sort(f.begin(), f.end());
+      out.faces[f].insert(T.region[i]);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("split_material: a sphere in three pieces, closed, sharing their separators, filling it exactly") {
@@ -254,16 +299,7 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
   for (const double jitter : {0.0, 0.15}) {
     CAPTURE(jitter);
     const Sphere outer = icosphere(10.0, 4, true, jitter, 3), inner = icosphere(4.0, 3, true, jitter, 4);
-    std::vector<glm::dvec3> points = outer.points;
-    std::vector<std::array<uint32_t, 3>> triangles = outer.triangles;
-    std::vector<std::array<uint16_t, 2>> pair(outer.triangles.size(), {0, 1});
-    const auto base = uint32_t(points.size());
-    points.insert(points.end(), inner.points.begin(), inner.points.end());
-    for (auto t : inner.triangles) {
-      for (auto& v : t) v += base;
-      triangles.push_back(t);
-      pair.push_back({1, 2});
-    }
+    const auto [points, triangles, pair] = nested(outer, inner);
     const std::vector<mesh::Region> seeds = {{glm::dvec3(7.0, 0.0, 0.0), 2}, {glm::dvec3(0.0), 3}};
     const std::vector<uint16_t> labels = {0, 1, 2};
     mesh::QualityOptions options;
@@ -287,23 +323,10 @@ TEST_CASE("mesh_materials: a shell cut into pieces meshes like one run: same vol
     }
     // Volumes per material equal the whole runs' (and the surfaces' enclosed volumes).
     for (const auto* r : {&whole, &cut}) {
-      std::map<int, double> volume;
-      std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;
       const mesh::Tets& T = r->tets;
       REQUIRE(T.region.size() == T.tets.size());
-      for (size_t i = 0; i < T.tets.size(); ++i) {
-        volume[T.region[i]] += tet_volume(T.points, T.tets[i]);
-        for (int c = 0; c < 4; ++c) {
-          std::array<uint32_t, 3> f = {T.tets[i][size_t((c + 1) % 4)], T.tets[i][size_t((c + 2) % 4)],
-                                       T.tets[i][size_t((c + 3) % 4)]};
-          std::sort(f.begin(), f.end());
-          faces[f].insert(T.region[i]);
-        }
-      }
-      CHECK(volume.size() == 2);
-      CHECK(volume[2] == doctest::Approx(-enclosed_volume(outer.points, outer.triangles) +
-                                         enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
-      CHECK(volume[3] == doctest::Approx(-enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+      auto [volume, faces] = tally(T);
+      check_nested_volumes(volume, outer, inner);
       // Conforming: each interface triangle is a face of one tet of each meshed material beside it; every other
       // face of a tet is shared by two tets of one material or by none (none: the outer hull).
       for (size_t i = 0; i < triangles.size(); ++i) {
@@ -327,16 +350,7 @@ TEST_CASE("mesh_materials: a refused cut meshes its material whole beside anothe
   // Material 1 a shell 0.7 thick between spheres of radius 10 and 9.3 (its cut is refused: thin layers), material 2
   // the ball inside (cut in pieces). The merge numbers material 2's separator points right after the surfaces'.
   const Sphere outer = icosphere(10.0, 4, true), inner = icosphere(9.3, 4, true);
-  std::vector<glm::dvec3> points = outer.points;
-  std::vector<std::array<uint32_t, 3>> triangles = outer.triangles;
-  std::vector<std::array<uint16_t, 2>> pair(outer.triangles.size(), {0, 1});
-  const auto base = uint32_t(points.size());
-  points.insert(points.end(), inner.points.begin(), inner.points.end());
-  for (auto t : inner.triangles) {
-    for (auto& v : t) v += base;
-    triangles.push_back(t);
-    pair.push_back({1, 2});
-  }
+  const auto [points, triangles, pair] = nested(outer, inner);
   const std::vector<mesh::Region> seeds = {{glm::dvec3(9.65, 0.0, 0.0), 2}, {glm::dvec3(0.0), 3}};
   const std::vector<uint16_t> labels = {0, 7, 9};
   mesh::QualityOptions options;
@@ -361,21 +375,8 @@ TEST_CASE("mesh_materials: a refused cut meshes its material whole beside anothe
   REQUIRE(T.points.size() >= points.size());
   CHECK(std::equal(points.begin(), points.end(), T.points.begin()));
   REQUIRE(T.region.size() == T.tets.size());
-  std::map<int, double> volume;
-  std::map<std::array<uint32_t, 3>, std::multiset<int>> faces;
-  for (size_t i = 0; i < T.tets.size(); ++i) {
-    volume[T.region[i]] += tet_volume(T.points, T.tets[i]);
-    for (int c = 0; c < 4; ++c) {
-      std::array<uint32_t, 3> f = {T.tets[i][size_t((c + 1) % 4)], T.tets[i][size_t((c + 2) % 4)],
-                                   T.tets[i][size_t((c + 3) % 4)]};
-      std::sort(f.begin(), f.end());
-      faces[f].insert(T.region[i]);
-    }
-  }
-  CHECK(volume.size() == 2);
-  CHECK(volume[2] == doctest::Approx(-enclosed_volume(outer.points, outer.triangles) +
-                                     enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
-  CHECK(volume[3] == doctest::Approx(-enclosed_volume(inner.points, inner.triangles)).epsilon(1e-9));
+  auto [volume, faces] = tally(T);
+  check_nested_volumes(volume, outer, inner);
   size_t unpaired = 0, mixed = 0;
   for (const auto& [f, who] : faces) {
     unpaired += who.size() == 1;
