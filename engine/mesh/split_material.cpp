@@ -37,7 +37,7 @@ constexpr double kSpacing = 2.0;
 constexpr double kThinShare = 0.3;
 // Plane placement (below): a boundary triangle grazes a plane when its normal is within acos(kGrazeCos) (37 degrees)
 // of the plane's axis and its centroid within kGrazeBand mean edge lengths of the plane; a plane may move by
-// kPlaneSlack of a piece's share of the boundary vertices (a whole number of quarters) to graze less.
+// kPlaneSlack of a piece's share of the estimated work to graze less.
 constexpr double kGrazeCos = 0.8;
 constexpr double kGrazeBand = 3.0;
 constexpr double kPlaneSlack = 0.25;
@@ -159,6 +159,11 @@ class ParityTest {
 
 }  // namespace
 
+double estimated_tets(double vertices, double volume, double mean_edge) {
+  constexpr double kTetsPerVertex = 6.94, kTetsPerEdgeCube = 0.053;
+  return kTetsPerVertex * vertices + (mean_edge > 0 ? kTetsPerEdgeCube * volume / (mean_edge * mean_edge * mean_edge) : 0.0);
+}
+
 MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& boundary,
                              int pieces, uint32_t first_new) {
   MaterialSplit out;
@@ -217,25 +222,44 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     mean_edge += edge_sum[v] / (3.0 * double(tri.size()) * 2.0);
   }
 
-  // Planes near quantiles of the vertices along the axis, each where it grazes the boundary least: where the
+  // Planes near quantiles of the estimated work along the axis (estimated_tets: the boundary's vertices and the
+  // volume below each place), each where it grazes the boundary least: where the
   // boundary runs nearly parallel to a plane close to it, the separator meets it at a small angle and the tets in
   // that wedge stay slivers through every pass (the paper-size head in 16 pieces: of the 83 tets left under 12
   // degrees, nearly all lay within about an edge length of a plane, at boundary normals within 30 degrees of its
   // axis). Grazing is the area of the boundary triangles whose normals lie within acos(kGrazeCos) of the axis with
   // their centroids within kGrazeBand mean edge lengths of the plane; a plane goes to the least grazing place among
-  // the vertex quantiles j/pieces +- kPlaneSlack/pieces, the nearest to its quantile (the quantile's own place where
+  // the work quantiles j/pieces +- kPlaneSlack/pieces, the nearest to its quantile (the quantile's own place where
   // nothing grazes there), below every place the next plane can take. A piece between two moved planes keeps
-  // between 1 - 2 kPlaneSlack and 1 + 2 kPlaneSlack of its share of the vertices.
+  // between 1 - 2 kPlaneSlack and 1 + 2 kPlaneSlack of its share of the work.
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   std::sort(along.begin(), along.end());
-  std::vector<std::pair<double, double>> grazing;  // (centroid along the axis, area) of the grazing triangles
-  for (const auto& t : tri) {
+  // The volume below c, by the divergence theorem with the field (x_axis - c) e_axis, which vanishes on the plane:
+  // the boundary triangles below c (by centroid) summed as (centroid - c) times their area-weighted normal's axis
+  // component; prefix sums over the triangles in centroid order give it for any c.
+  std::vector<std::array<double, 3>> flux(tri.size());  // (centroid, normal_axis * area, centroid * normal_axis * area)
+  std::vector<std::pair<double, double>> grazing;        // (centroid along the axis, area) of the grazing triangles
+  for (size_t i = 0; i < tri.size(); ++i) {
+    const auto& t = tri[i];
     const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
-    const double area2 = glm::length(n);
-    if (area2 > 0 && std::fabs(n[axis]) >= kGrazeCos * area2)
-      grazing.push_back({(P[t[0]][axis] + P[t[1]][axis] + P[t[2]][axis]) / 3, area2 / 2});
+    const double area2 = glm::length(n), centroid = (P[t[0]][axis] + P[t[1]][axis] + P[t[2]][axis]) / 3;
+    flux[i] = {centroid, n[axis] / 2, centroid * n[axis] / 2};
+    if (area2 > 0 && std::fabs(n[axis]) >= kGrazeCos * area2) grazing.push_back({centroid, area2 / 2});
   }
+  std::sort(flux.begin(), flux.end());
+  std::vector<double> flux_at(tri.size()), flux0(tri.size() + 1, 0.0), flux1(tri.size() + 1, 0.0);
+  for (size_t i = 0; i < tri.size(); ++i) {
+    flux_at[i] = flux[i][0];
+    flux0[i + 1] = flux0[i] + flux[i][1];
+    flux1[i + 1] = flux1[i] + flux[i][2];
+  }
+  auto work_below = [&](double c) {
+    const auto k = size_t(std::lower_bound(flux_at.begin(), flux_at.end(), c) - flux_at.begin());
+    const auto v = size_t(std::lower_bound(along.begin(), along.end(), c) - along.begin());
+    return estimated_tets(double(v), std::max(0.0, flux1[k] - c * flux0[k]), mean_edge);
+  };
+  const double work_total = estimated_tets(double(n_surface), std::max(0.0, flux1.back()), mean_edge);
   std::sort(grazing.begin(), grazing.end());
   std::vector<double> graze_at(grazing.size()), graze_sum(grazing.size() + 1, 0.0);
   for (size_t i = 0; i < grazing.size(); ++i) {
@@ -250,16 +274,26 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   };
   // Each candidate halfway between a vertex coordinate and the next larger one: no vertex lies on a plane, nor does
   // a lattice point land on a boundary triangle lying in one.
-  const size_t slack = size_t(std::lround(4.0 * kPlaneSlack));  // in quarters of a piece's share
-  auto window_start = [&](int j) { return n_surface * (4 * size_t(j) - slack) / (4 * size_t(pieces)); };
+  auto candidate = [&](size_t i) -> std::optional<double> {
+    const auto next = std::upper_bound(along.begin(), along.end(), along[i]);
+    if (next == along.end()) return std::nullopt;
+    return (along[i] + *next) / 2;
+  };
+  // The first vertex whose candidate has at least `share` (of the work) below it; n_surface - 1 where none has.
+  auto quantile = [&](double share) {
+    size_t lo_i = 0, hi_i = n_surface - 1;
+    while (lo_i < hi_i) {
+      const size_t mid = (lo_i + hi_i) / 2;
+      const std::optional<double> c = candidate(mid);
+      if (c && work_below(*c) < share * work_total) lo_i = mid + 1;
+      else hi_i = mid;
+    }
+    return lo_i;
+  };
+  auto window_start = [&](int j) { return quantile((double(j) - kPlaneSlack) / pieces); };
   for (int j = 1; j < pieces; ++j) {
-    const size_t q = n_surface * size_t(j) / size_t(pieces);
-    const size_t from = window_start(j), to = n_surface * (4 * size_t(j) + slack) / (4 * size_t(pieces));
-    auto candidate = [&](size_t i) -> std::optional<double> {
-      const auto next = std::upper_bound(along.begin(), along.end(), along[i]);
-      if (next == along.end()) return std::nullopt;
-      return (along[i] + *next) / 2;
-    };
+    const size_t q = quantile(double(j) / pieces);
+    const size_t from = window_start(j), to = quantile((double(j) + kPlaneSlack) / pieces);
     const std::optional<double> middle = candidate(q);
     if (!middle) return refuse("too few distinct vertex coordinates along the cut axis");
     // The next plane's places all lie above the first vertex of its window; this one's stay at or below it.

@@ -266,25 +266,45 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   for (const Region& s : seeds)
     for (Job& job : jobs)
       (job.material == s.attribute - 1 ? job.regions.push_back(s) : job.holes.push_back(s.seed));
+  // Each material's boundary, and what estimated_tets needs of it: its volume (signed cones from the first point,
+  // the triangles oriented out of it) and its mean edge length; its vertices are about half its triangles (closed).
+  std::vector<double> volume_of(jobs.size(), 0.0), edge_sum_of(jobs.size(), 0.0);
+  const glm::dvec3 apex = points.empty() ? glm::dvec3(0.0) : points[0];
   for (size_t i = 0; i < triangles.size(); ++i)
-    for (uint16_t m : pair[i])
-      if (m < job_of.size() && job_of[m] >= 0) jobs[size_t(job_of[m])].triangles.push_back(triangles[i]);
+    for (int side = 0; side < 2; ++side) {
+      const uint16_t m = pair[i][size_t(side)];
+      if (m >= job_of.size() || job_of[m] < 0) continue;
+      const auto j = size_t(job_of[m]);
+      jobs[j].triangles.push_back(triangles[i]);
+      const glm::dvec3 &a = points[triangles[i][0]], &b = points[triangles[i][1]], &c = points[triangles[i][2]];
+      volume_of[j] += (side == 0 ? 1.0 : -1.0) * glm::dot(a - apex, glm::cross(b - apex, c - apex)) / 6;
+      edge_sum_of[j] += glm::length(a - b) + glm::length(b - c) + glm::length(c - a);
+    }
 
-  // Large materials are cut into pieces so that the runs fill the cores: each material gets runs in proportion to
-  // its boundary, as long as the pieces keep options.min_piece_triangles on average (split_material.h: a piece may
-  // keep half its share).
+  // Large materials are cut into pieces so that the runs fill the cores: one run at a time goes to the material whose
+  // runs would be largest by estimated_tets (split_material.h), until there are as many runs as asked, as long as its
+  // pieces keep options.min_piece_triangles on average (split_material.h: a piece may keep half its share). The
+  // largest run then is as small as whole pieces allow, and no run waits for a core.
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   const size_t runs = options.runs > 0 ? options.runs : tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
-  size_t boundary_total = 0;
-  for (const Job& job : jobs) boundary_total += job.triangles.size();
-  std::vector<int> pieces_of(jobs.size(), 1);  // asked for; a refused cut leaves one run
-  for (size_t j = 0; j < jobs.size() && runs > jobs.size(); ++j) {
+  std::vector<double> work(jobs.size());
+  for (size_t j = 0; j < jobs.size(); ++j) {
     const size_t n = jobs[j].triangles.size();
-    const double share = double(runs) * double(n) / double(std::max<size_t>(boundary_total, 1));
-    const size_t k = std::min({size_t(share + 0.5), n / std::max<size_t>(options.min_piece_triangles, 1), size_t(1024)});
-    if (k >= 2) pieces_of[j] = int(k);
+    work[j] = estimated_tets(double(n) / 2, std::max(0.0, volume_of[j]), edge_sum_of[j] / double(3 * std::max<size_t>(n, 1)));
+  }
+  std::vector<int> pieces_of(jobs.size(), 1);  // asked for; a refused cut leaves one run
+  for (size_t total = jobs.size(); total < runs; ++total) {
+    size_t pick = jobs.size();
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      const auto k = size_t(pieces_of[j]);
+      if (k < 1024 && jobs[j].triangles.size() / (k + 1) >= std::max<size_t>(options.min_piece_triangles, 1) &&
+          (pick == jobs.size() || work[j] / double(k) > work[pick] / double(pieces_of[pick])))
+        pick = j;
+    }
+    if (pick == jobs.size()) break;
+    ++pieces_of[pick];
   }
   // A slot per run asked for: a material's pieces (or the whole material, in its first slot, where the cut is
   // refused), in material order. Each run gets the caller's points and, for a piece, its material's separator points

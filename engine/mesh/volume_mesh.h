@@ -12,7 +12,8 @@
 // multithreaded process must not). The runs are merged in material order.
 // One TetGen run per material leaves cores idle where there are more cores than materials (the paper-size head: 4
 // materials, the largest run 79 s of 87 on 16 cores). Asked for (QualityOptions::runs above 1, or 0: one per core),
-// the runs are shared out in proportion to the materials' boundaries, and a material given two or more is cut into
+// the runs are shared out one at a time to the material whose runs would be largest by the tets TetGen is estimated to
+// make (split_material.h: estimated_tets), and a material given two or more is cut into
 // pieces by planes (split_material.h), each piece a run bounded by its boundary triangles and the separators, which
 // both sides keep (-Y); its region is the material (no seed: a component cut by a plane has one on one side only),
 // less any region its boundary closes off from outside (drop_pockets). A piece whose tets do not fill the volume its

@@ -242,7 +242,52 @@ void check_pieces(const Sphere& s, const mesh::MaterialSplit& split) {
   CHECK(sum == doctest::Approx(enclosed_volume(s.points, s.triangles)).epsilon(1e-12));
 }
 
+// The estimated work (mesh::estimated_tets) of the part of closed surface s below the plane x = c, found apart from
+// split_material's prefix sums: its vertices below c, and its volume below c exactly (each triangle clipped to
+// x < c, cones from a point on the plane, so that the cap adds nothing).
+double work_below(const Sphere& s, double c) {
+  size_t below = 0;
+  for (const auto& p : s.points) below += p.x < c;
+  const glm::dvec3 apex(c, 0, 0);
+  double volume = 0;
+  for (const auto& t : s.triangles) {
+    std::vector<glm::dvec3> polygon;
+    for (int e = 0; e < 3; ++e) {
+      const glm::dvec3 &p = s.points[t[size_t(e)]], &q = s.points[t[size_t((e + 1) % 3)]];
+      if (p.x < c) polygon.push_back(p);
+      if ((p.x < c) != (q.x < c)) polygon.push_back(p + (q - p) * ((c - p.x) / (q.x - p.x)));
+    }
+    for (size_t k = 1; k + 1 < polygon.size(); ++k)
+      volume += glm::dot(polygon[0] - apex, glm::cross(polygon[k] - apex, polygon[k + 1] - apex)) / 6;
+  }
+  return mesh::estimated_tets(double(below), volume, mean_edge(s));
+}
+
 }  // namespace
+
+TEST_CASE("split_material: the planes lie at quantiles of the estimated work, not of the vertices") {
+  // A sphere stretched to three times its length on the side x > 0: as many vertices on either side of x = 0, three
+  // times the volume on the stretched side. Nothing grazes a plane near the middle (the normals there are across x).
+  Sphere s = icosphere(10.0, 5, false);
+  for (auto& p : s.points)
+    if (p.x > 0) p.x *= 3;
+  const auto split = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()));
+  INFO(split.refused);
+  REQUIRE(split.refused.empty());
+  REQUIRE(split.planes.size() == 1);
+  REQUIRE(split.axis == 0);
+  const double plane = split.planes[0], total = work_below(s, 1e9);
+  size_t below = 0;
+  for (const auto& p : s.points) below += p.x < plane;
+  MESSAGE("plane at x = " << plane << ": " << double(below) / double(s.points.size()) << " of the vertices below, "
+                          << work_below(s, plane) / total << " of the work");
+  CHECK(work_below(s, plane) == doctest::Approx(total / 2).epsilon(0.002));
+  // Not the vertices' median: the stretched side's volume draws the plane into it, leaving over half the vertices below.
+  CHECK(double(below) > 0.505 * double(s.points.size()));
+  CHECK(total == doctest::Approx(mesh::estimated_tets(double(s.points.size()), enclosed_volume(s.points, s.triangles),
+                                                      mean_edge(s))));
+  check_pieces(s, split);
+}
 
 TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, to the nearer side, within its slack") {
   // A cavity a little off the middle (either way): the median plane would cut through it; it goes to the nearer
@@ -262,11 +307,10 @@ TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, 
     CHECK(nearest < 3.5 * edge);          // the nearest such place to the middle
     CHECK(plane * shift < 0);             // on the side away from the cavity's centre (nearer the median)
     CHECK(std::fabs(plane - shift) > 0.36);
-    // Within the slack (a quarter of a piece's share): each piece keeps 3/8-5/8 of the boundary's vertices.
-    size_t left = 0;
-    for (const auto& p : s.points) left += p.x < plane;
-    CHECK(left * 8 >= s.points.size() * 3);
-    CHECK(left * 8 <= s.points.size() * 5);
+    // Within the slack (a quarter of a piece's share): each piece keeps 3/8-5/8 of the estimated work.
+    const double share = work_below(s, plane) / work_below(s, 1e9);
+    CHECK(share >= 3.0 / 8 - 0.002);
+    CHECK(share <= 5.0 / 8 + 0.002);
     check_pieces(s, split);
   }
 }
@@ -283,11 +327,10 @@ TEST_CASE("split_material: in three pieces both planes move off their cavities, 
   for (int j = 0; j < 2; ++j) {
     CAPTURE(j);
     CHECK(grazing_distance(s, split.planes[size_t(j)]) > 2.5 * edge);
-    size_t below = 0;
-    for (const auto& p : s.points) below += p.x < split.planes[size_t(j)];
-    // Plane j + 1 at the vertex quantile (j + 1) / 3, give or take a quarter of a piece's share (1/12).
-    CHECK(below * 12 >= s.points.size() * size_t(4 * (j + 1) - 1));
-    CHECK(below * 12 <= s.points.size() * size_t(4 * (j + 1) + 1));
+    // Plane j + 1 at the work quantile (j + 1) / 3, give or take a quarter of a piece's share (1/12).
+    const double share = work_below(s, split.planes[size_t(j)]) / work_below(s, 1e9);
+    CHECK(share * 12 >= double(4 * (j + 1) - 1) - 0.02);
+    CHECK(share * 12 <= double(4 * (j + 1) + 1) + 0.02);
   }
   check_pieces(s, split);
 }
