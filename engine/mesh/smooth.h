@@ -6,7 +6,9 @@
 // puts it back on its feature with the Newton projection of the smooth fields (the embedding's own construction), and
 // keeps the move only if none of its triangles flips and the worst radius ratio among them does not get worse
 // ("smart" Laplacian smoothing), checked against the moves already kept: vertex by vertex within a colour class (no
-// two vertices of one triangle share a colour, so a class is checked in parallel), class by class. Quadruple points
+// two vertices of one triangle share a colour, so a class is checked in parallel), class by class. Where triangles
+// cross others (thin layers), their moved vertices go back to the last positions tested crossing-free: the test runs
+// after every round while it finds crossings, else once after the last round. Quadruple points
 // do not move. Connectivity is unchanged, so the interfaces stay
 // conforming along the curves and manifold where they were.
 #include <array>
