@@ -133,7 +133,10 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
   // Crossings (undo_crossings): tested after every round while the last test found some (thin layers), else once
   // after the rounds, back to the positions of the last round tested. The test over every moved triangle was most
   // of the smoothing's time, and most meshes have none: on 2 cores the 256^3 wedge ball at h <= 1 took 4.6 s, now
-  // 2.7, the 100^3 head phantom 3.5 s, now 2.0 (same moves, same mesh); the 64^3 shells test every round as before.
+  // 2.7, the 100^3 head phantom 3.5 s, now 2.0 (same moves, same mesh); the 64^3 shells, whose every round crosses,
+  // as before. Once a round tests clean the later ones are not tested: a crossing they make is undone at the end, and
+  // its vertices lose every round's moves since then (and a triangle turned over 90 degrees since `safe` goes back
+  // too).
   std::vector<glm::dvec3> safe = V;  // crossing-free: before the rounds, then after each round tested
   bool check_each_round = true, unchecked = false;
   for (int round = 0; round < options.rounds; ++round) {

@@ -279,7 +279,8 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     if (next == along.end()) return std::nullopt;
     return (along[i] + *next) / 2;
   };
-  // The first vertex whose candidate has at least `share` (of the work) below it; n_surface - 1 where none has.
+  // The first vertex (in `along`) whose candidate has at least `share` of the work below it; where none has, the
+  // first vertex at the largest coordinate (it has no candidate).
   auto quantile = [&](double share) {
     size_t lo_i = 0, hi_i = n_surface - 1;
     while (lo_i < hi_i) {

@@ -244,6 +244,48 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
 
 }  // namespace
 
+std::vector<double> material_work(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                                  const std::vector<std::array<uint16_t, 2>>& pair, size_t materials) {
+  std::vector<double> volume(materials, 0.0), edges(materials, 0.0);
+  std::vector<size_t> count(materials, 0);
+  const glm::dvec3 apex = points.empty() ? glm::dvec3(0.0) : points[0];  // cones from a point near the surfaces
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    const glm::dvec3 &a = points[triangles[i][0]], &b = points[triangles[i][1]], &c = points[triangles[i][2]];
+    const double cone = glm::dot(a - apex, glm::cross(b - apex, c - apex)) / 6;
+    const double perimeter = glm::length(a - b) + glm::length(b - c) + glm::length(c - a);
+    for (int side = 0; side < 2; ++side) {
+      const uint16_t m = pair[i][size_t(side)];
+      if (m >= materials) continue;
+      volume[m] += side == 0 ? cone : -cone;  // the normal points out of pair[i][0]
+      edges[m] += perimeter;
+      ++count[m];
+    }
+  }
+  std::vector<double> work(materials, 0.0);
+  for (size_t m = 0; m < materials; ++m)
+    if (count[m] > 0)
+      work[m] = estimated_tets(double(count[m]) / 2, std::max(0.0, volume[m]), edges[m] / double(3 * count[m]));
+  return work;
+}
+
+std::vector<int> share_runs(const std::vector<double>& work, const std::vector<size_t>& triangles, size_t runs,
+                            size_t min_piece_triangles) {
+  std::vector<int> pieces(work.size(), 1);
+  const size_t least = std::max<size_t>(min_piece_triangles, 1);
+  for (size_t total = work.size(); total < runs; ++total) {
+    size_t pick = work.size();
+    for (size_t j = 0; j < work.size(); ++j) {
+      const auto k = size_t(pieces[j]);
+      if (k < 1024 && triangles[j] / (k + 1) >= least &&
+          (pick == work.size() || work[j] / double(k) > work[pick] / double(pieces[pick])))
+        pick = j;
+    }
+    if (pick == work.size()) break;
+    ++pieces[pick];
+  }
+  return pieces;
+}
+
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                               const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,
                               const std::vector<uint16_t>& labels, const QualityOptions& options) {
@@ -266,46 +308,24 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   for (const Region& s : seeds)
     for (Job& job : jobs)
       (job.material == s.attribute - 1 ? job.regions.push_back(s) : job.holes.push_back(s.seed));
-  // Each material's boundary, and what estimated_tets needs of it: its volume (signed cones from the first point,
-  // the triangles oriented out of it) and its mean edge length; its vertices are about half its triangles (closed).
-  std::vector<double> volume_of(jobs.size(), 0.0), edge_sum_of(jobs.size(), 0.0);
-  const glm::dvec3 apex = points.empty() ? glm::dvec3(0.0) : points[0];
   for (size_t i = 0; i < triangles.size(); ++i)
-    for (int side = 0; side < 2; ++side) {
-      const uint16_t m = pair[i][size_t(side)];
-      if (m >= job_of.size() || job_of[m] < 0) continue;
-      const auto j = size_t(job_of[m]);
-      jobs[j].triangles.push_back(triangles[i]);
-      const glm::dvec3 &a = points[triangles[i][0]], &b = points[triangles[i][1]], &c = points[triangles[i][2]];
-      volume_of[j] += (side == 0 ? 1.0 : -1.0) * glm::dot(a - apex, glm::cross(b - apex, c - apex)) / 6;
-      edge_sum_of[j] += glm::length(a - b) + glm::length(b - c) + glm::length(c - a);
-    }
+    for (uint16_t m : pair[i])
+      if (m < job_of.size() && job_of[m] >= 0) jobs[size_t(job_of[m])].triangles.push_back(triangles[i]);
 
-  // Large materials are cut into pieces so that the runs fill the cores: one run at a time goes to the material whose
-  // runs would be largest by estimated_tets (split_material.h), until there are as many runs as asked, as long as its
-  // pieces keep options.min_piece_triangles on average (split_material.h: a piece may keep half its share). The
-  // largest run then is as small as whole pieces allow, and no run waits for a core.
+  // Large materials are cut into pieces so that the runs fill the cores (share_runs).
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   const size_t runs = options.runs > 0 ? options.runs : tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  const std::vector<double> work_of_material = material_work(points, triangles, pair, labels.size());
   std::vector<double> work(jobs.size());
+  std::vector<size_t> boundary_size(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j) {
-    const size_t n = jobs[j].triangles.size();
-    work[j] = estimated_tets(double(n) / 2, std::max(0.0, volume_of[j]), edge_sum_of[j] / double(3 * std::max<size_t>(n, 1)));
+    work[j] = work_of_material[jobs[j].material];
+    boundary_size[j] = jobs[j].triangles.size();
   }
-  std::vector<int> pieces_of(jobs.size(), 1);  // asked for; a refused cut leaves one run
-  for (size_t total = jobs.size(); total < runs; ++total) {
-    size_t pick = jobs.size();
-    for (size_t j = 0; j < jobs.size(); ++j) {
-      const auto k = size_t(pieces_of[j]);
-      if (k < 1024 && jobs[j].triangles.size() / (k + 1) >= std::max<size_t>(options.min_piece_triangles, 1) &&
-          (pick == jobs.size() || work[j] / double(k) > work[pick] / double(pieces_of[pick])))
-        pick = j;
-    }
-    if (pick == jobs.size()) break;
-    ++pieces_of[pick];
-  }
+  const std::vector<int> pieces_of = share_runs(work, boundary_size, runs, options.min_piece_triangles);  // asked for;
+                                                                                    // a refused cut leaves one run
   // A slot per run asked for: a material's pieces (or the whole material, in its first slot, where the cut is
   // refused), in material order. Each run gets the caller's points and, for a piece, its material's separator points
   // after them (MaterialSplit::first_new = points.size()): the materials are cut and meshed at once, so no run waits

@@ -27,7 +27,8 @@
 // are meshed in one run over every interface (its regions still labelled by the seeds), as before the split.
 //
 // Inputs:  points     the surface vertices (those no triangle uses are in no tet)
-//          triangles  the interface triangles, pair[i] the two materials (indices) on either side of triangle i
+//          triangles  the interface triangles, pair[i] the two materials (indices) on either side of triangle i, its
+//                     normal pointing out of pair[i][0] into pair[i][1] (extract.h)
 //          seeds      a point inside every enclosed component, attribute = its material index + 1
 //                     (component_representatives in extract.h)
 //          labels     the materials' labels, for error messages
@@ -84,6 +85,19 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
 // tets under the bound. Returns false, with T untouched, where no tet is under the bound.
 bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3>>& kept, const QualityOptions& options,
                  TetImproveReport& improvement, SliverSplitReport& split);
+
+// The estimated work of each material's TetGen run (estimated_tets, split_material.h) from the interface triangles
+// that bound it: half as many vertices as triangles (a closed boundary), the volume they enclose (normals out of
+// pair[i][0]), their mean edge length; 0 for a material no triangle bounds. Pair entries >= materials are skipped.
+std::vector<double> material_work(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                                  const std::vector<std::array<uint16_t, 2>>& pair, size_t materials);
+
+// How many runs each material gets, of `runs` asked for (mesh_materials): one each, then one at a time to the
+// material whose runs would be largest by `work`, as long as its pieces keep min_piece_triangles of its `triangles`
+// on average (at most 1024). Where every material can take them, the runs add up to `runs` and the largest run is as
+// small as whole shares allow; with no more runs than materials, one each.
+std::vector<int> share_runs(const std::vector<double>& work, const std::vector<size_t>& triangles, size_t runs,
+                            size_t min_piece_triangles);
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                               const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,
