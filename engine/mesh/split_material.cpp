@@ -238,21 +238,21 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // The volume below c, by the divergence theorem with the field (x_axis - c) e_axis, which vanishes on the plane:
   // the boundary triangles below c (by centroid) summed as (centroid - c) times their area-weighted normal's axis
   // component; prefix sums over the triangles in centroid order give it for any c.
-  std::vector<std::array<double, 3>> flux(tri.size());  // (centroid, normal_axis * area, centroid * normal_axis * area)
-  std::vector<std::pair<double, double>> grazing;        // (centroid along the axis, area) of the grazing triangles
+  std::vector<std::pair<double, double>> flux(tri.size());  // (centroid along the axis, normal_axis * area)
+  std::vector<std::pair<double, double>> grazing;           // (centroid along the axis, area) of the grazing triangles
   for (size_t i = 0; i < tri.size(); ++i) {
     const auto& t = tri[i];
     const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
     const double area2 = glm::length(n), centroid = (P[t[0]][axis] + P[t[1]][axis] + P[t[2]][axis]) / 3;
-    flux[i] = {centroid, n[axis] / 2, centroid * n[axis] / 2};
+    flux[i] = {centroid, n[axis] / 2};
     if (area2 > 0 && std::fabs(n[axis]) >= kGrazeCos * area2) grazing.push_back({centroid, area2 / 2});
   }
   std::sort(flux.begin(), flux.end());
   std::vector<double> flux_at(tri.size()), flux0(tri.size() + 1, 0.0), flux1(tri.size() + 1, 0.0);
   for (size_t i = 0; i < tri.size(); ++i) {
-    flux_at[i] = flux[i][0];
-    flux0[i + 1] = flux0[i] + flux[i][1];
-    flux1[i + 1] = flux1[i] + flux[i][2];
+    flux_at[i] = flux[i].first;
+    flux0[i + 1] = flux0[i] + flux[i].second;
+    flux1[i + 1] = flux1[i] + flux[i].first * flux[i].second;
   }
   auto work_below = [&](double c) {
     const auto k = size_t(std::lower_bound(flux_at.begin(), flux_at.end(), c) - flux_at.begin());

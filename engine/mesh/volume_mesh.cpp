@@ -365,6 +365,11 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       for (size_t k = range.begin(); k != range.end(); ++k) run_one(order[k]);
     }, tbb::simple_partitioner());
   };
+  // A material meshed whole: one run, in its first slot.
+  auto whole = [&](size_t j) {
+    runs_of[first_run[j]] = jobs[j];
+    active[first_run[j]] = 1;
+  };
   // Cuts a material into its slots' runs: its pieces, or itself whole where the cut is refused.
   auto cut = [&](size_t j) {
     const uint16_t m = jobs[j].material;
@@ -382,8 +387,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     if (!split.refused.empty() || split.pieces.empty()) {
       unsplit[j] = "material " + std::to_string(labels[m]) + " meshed whole: " +
                    (split.refused.empty() ? std::string("no pieces") : split.refused);
-      runs_of[first_run[j]] = jobs[j];
-      active[first_run[j]] = 1;
+      whole(j);
       return;
     }
     run_points[j].reserve(points.size() + split.points.size());
@@ -402,12 +406,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   // TetGen children: on the paper-size head on 16 cores the last cut then ended at 34 s instead of 9.)
   std::vector<size_t> to_cut;
   for (size_t j = 0; j < jobs.size(); ++j) {
-    if (pieces_of[j] > 1) {
-      to_cut.push_back(j);
-    } else {
-      runs_of[first_run[j]] = jobs[j];
-      active[first_run[j]] = 1;
-    }
+    if (pieces_of[j] > 1) to_cut.push_back(j);
+    else whole(j);
   }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, to_cut.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) cut(to_cut[i]);
