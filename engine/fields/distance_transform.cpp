@@ -1,5 +1,6 @@
 #include "fields/distance_transform.h"
 
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -8,14 +9,14 @@
 
 namespace cpmesh::fields {
 
-void squared_distance_1d(float* f, int n, size_t stride, double spacing, int* v, double* z, float* d) {
+void squared_distance_1d(float* f, int n, size_t stride, double spacing, int* v, double* z, float* d, double cap2) {
   // Lower envelope of parabolas y = f(q) + (spacing * (x - q))^2 over sample positions q with finite f.
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double s2 = spacing * spacing;
   int k = -1;
   for (int q = 0; q < n; ++q) {
     const double fq = f[size_t(q) * stride];
-    if (!(fq < 1e30)) continue;  // no seed on this sample: contributes no parabola
+    if (!(fq < 1e30) || !(fq < cap2)) continue;  // no seed on this sample (or none within the cap): no parabola
     if (k < 0) {
       k = 0;
       v[0] = q;
@@ -46,7 +47,9 @@ void squared_distance_1d(float* f, int n, size_t stride, double spacing, int* v,
   for (int q = 0; q < n; ++q) f[size_t(q) * stride] = d[q];
 }
 
-void squared_distance_transform(const Grid& grid, std::span<float> values) {
+void squared_distance_transform(const Grid& grid, std::span<float> values, double cap) {
+  // (A little over the cap: the passes' float sums of a voxel within it stay under this.)
+  const double cap2 = std::isinf(cap) ? cap : (cap * 1.001 + 1e-6) * (cap * 1.001 + 1e-6);
   const glm::ivec3 n = grid.dims;
   const size_t sx = 1, sy = size_t(n.x), sz = size_t(n.x) * size_t(n.y);
   // One pass per axis; the lines of a pass are independent.
@@ -62,7 +65,7 @@ void squared_distance_transform(const Grid& grid, std::span<float> values) {
       for (int jb = r.rows().begin(); jb < r.rows().end(); ++jb)
         for (int ja = r.cols().begin(); ja < r.cols().end(); ++ja)
           squared_distance_1d(values.data() + size_t(jb) * stride_b + size_t(ja) * stride_a, len, stride,
-                              grid.spacing[axis], v.data(), z.data(), d.data());
+                              grid.spacing[axis], v.data(), z.data(), d.data(), cap2);
     });
   };
   pass(0);

@@ -383,7 +383,9 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
       junction_corner_labels.push_back(present);
       for (int c = 0; c < 8; ++c) junction_distance[grid.index(v.x + (c & 1), v.y + ((c >> 1) & 1), v.z + (c >> 2))] = 0;
     }
-    squared_distance_transform(grid, junction_distance);
+    // (Read up to fade + h: the twicing's and correction's weights are 1 beyond fade, the junction offsets 0
+    // beyond fade + h.)
+    squared_distance_transform(grid, junction_distance, (options.junction_fade + 1) * h);
   }
   const double fade = options.junction_fade * h;
   const double sigma_phys = options.smoothing_sigma * h;
@@ -418,14 +420,14 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         for (size_t ci = r.begin(); ci < r.end(); ++ci)
           depth[ci] = labels[full_index(ci)] == label ? std::numeric_limits<float>::infinity() : 0.0f;
       });
-      squared_distance_transform(cgrid, depth);
+      squared_distance_transform(cgrid, depth, thin_r + 0.5 * h);  // (read up to the core's depth)
       tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t ci = r.begin(); ci < r.end(); ++ci)
           to_core[ci] = depth[ci] > 0 && std::sqrt(double(depth[ci])) - 0.5 * h >= thin_r
                             ? 0.0f
                             : std::numeric_limits<float>::infinity();
       });
-      squared_distance_transform(cgrid, to_core);
+      squared_distance_transform(cgrid, to_core, 2.0 * thin_r);
       // (Each crop voxel is its own voxel of the volume: the parallel writes never meet.)
       out.protected_voxels += tbb::parallel_reduce(
           tbb::blocked_range<size_t>(0, cn), uint64_t(0),
@@ -439,7 +441,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           },
           std::plus<>());
     }
-    squared_distance_transform(grid, protected_distance);
+    // (Read as 0 or not by the junction shares; the flow's fade is 1 beyond tighten_r + 2h.)
+    squared_distance_transform(grid, protected_distance, tighten_r + 2 * h);
   }
   const JunctionAngles angles =
       options.junction_correction > 0 && !junction_corners.empty()
@@ -478,8 +481,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         to_outside[ci] = inside[ci] ? inf : 0.0f;
       }
     });
-    squared_distance_transform(cgrid, to_inside);
-    squared_distance_transform(cgrid, to_outside);
+    squared_distance_transform(cgrid, to_inside, double(band) + 0.5 * h);  // (clamped at the band below)
+    squared_distance_transform(cgrid, to_outside, double(band) + 0.5 * h);
     // Signed distance to the mask boundary, which lies half a voxel beyond the boundary voxels' centres.
     HostArray<float>& phi = to_inside;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cn), [&](const tbb::blocked_range<size_t>& r) {

@@ -56,6 +56,27 @@ TEST_CASE("squared distance transform matches brute force, anisotropic spacing")
         CHECK(f[g.index(i, j, k)] == doctest::Approx(best).epsilon(1e-5));
       }
 
+  // With a cap: exact within it (the same floats as without), above cap^2 (or infinite) beyond it.
+  const double cap = 1.1;  // seeds, and their x and y neighbours
+  std::vector<float> capped(g.voxel_count(), std::numeric_limits<float>::infinity());
+  for (size_t v = 0; v < capped.size(); ++v)
+    if (f[v] == 0) capped[v] = 0;
+  squared_distance_transform(g, capped, cap);
+  size_t within = 0, beyond = 0, dropped = 0;
+  for (size_t v = 0; v < capped.size(); ++v) {
+    if (f[v] <= cap * cap) {
+      ++within;
+      CHECK(capped[v] == f[v]);
+    } else {
+      ++beyond;
+      dropped += std::isinf(capped[v]);
+      CHECK(capped[v] > cap * cap);
+    }
+  }
+  CHECK(within > 50);
+  CHECK(beyond > 50);
+  CHECK(dropped > 0);  // the cap did drop samples
+
   std::vector<float> none(g.voxel_count(), std::numeric_limits<float>::infinity());
   squared_distance_transform(g, none);
   CHECK(std::isinf(none[17]));
