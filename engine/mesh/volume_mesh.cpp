@@ -33,7 +33,20 @@ struct Job {
   // A piece of a split material (split_material.h): its number of how many, and the volume its tets must fill.
   uint16_t piece = 0, pieces = 1;
   double volume = 0;
+  double work = 0;  // estimated tets (estimated_tets): the runs start largest first
 };
+
+// estimated_tets of a closed boundary enclosing `volume` (a closed triangle mesh of genus 0 has half as many
+// vertices as triangles).
+double boundary_work(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
+                     double volume) {
+  if (triangles.empty()) return 0;
+  double perimeter = 0;
+  for (const auto& t : triangles)
+    perimeter += glm::length(points[t[0]] - points[t[1]]) + glm::length(points[t[1]] - points[t[2]]) +
+                 glm::length(points[t[2]] - points[t[0]]);
+  return estimated_tets(double(triangles.size()) / 2, volume, perimeter / double(3 * triangles.size()));
+}
 
 // The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
 // around a new vertex (never across a face in `kept`), then move again to place the new vertices (smooth.h); then,
@@ -321,7 +334,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   std::vector<double> work(jobs.size());
   std::vector<size_t> boundary_size(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j) {
-    work[j] = work_of_material[jobs[j].material];
+    work[j] = jobs[j].work = work_of_material[jobs[j].material];
     boundary_size[j] = jobs[j].triangles.size();
   }
   const std::vector<int> pieces_of = share_runs(work, boundary_size, runs, options.min_piece_triangles);  // asked for;
@@ -357,10 +370,9 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       errors[r] = message.rfind(what, 0) == 0 ? message : what + ": " + message;
     }
   };
-  // Largest boundary first, so that the last run to start is a small one.
+  // Largest estimated work first, so that the last run to start is a small one (where runs outnumber threads).
   auto run_all = [&](std::vector<size_t> order) {
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t a, size_t b) { return runs_of[a].triangles.size() > runs_of[b].triangles.size(); });
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return runs_of[a].work > runs_of[b].work; });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t k = range.begin(); k != range.end(); ++k) run_one(order[k]);
     }, tbb::simple_partitioner());
@@ -397,7 +409,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       // The material's own seeds are holes for nothing here; other materials' seeds carve their cavities.
       const size_t r = first_run[j] + p;
       runs_of[r] = {jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
-                    uint16_t(split.pieces.size()), split.volumes[p]};
+                    uint16_t(split.pieces.size()), split.volumes[p], 0.0};
+      runs_of[r].work = boundary_work(run_points[j], runs_of[r].triangles, split.volumes[p]);
       active[r] = 1;
     }
   };
