@@ -30,6 +30,11 @@ class BrickField {
   void allocate(const glm::ivec3& brick);
   bool allocated(const glm::ivec3& brick) const { return slot_[brick_index(brick)] >= 0; }
   float* brick_data(const glm::ivec3& brick);  // null when the brick is constant
+  const float* brick_values(const glm::ivec3& brick) const {  // the same, read-only
+    const int32_t s = slot_[brick_index(brick)];
+    return s < 0 ? nullptr : data_.data() + size_t(s) * kBrickVoxels;
+  }
+  float brick_constant(const glm::ivec3& brick) const { return constant_[brick_index(brick)]; }
 
   // Catmull-Rom tricubic interpolation at a continuous voxel-index position (voxel centres at integers): C1, passes
   // through the samples. `gradient` (optional) receives d/d(index).

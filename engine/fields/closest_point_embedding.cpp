@@ -27,6 +27,34 @@ namespace {
 using MaterialSet = std::array<uint16_t, 4>;
 constexpr uint16_t kNone = 0xffff;
 
+// Every voxel of brick layers [bz_begin, bz_end) with the values of all fields there: visit(voxel, values), values[m]
+// = fields[m] at the voxel (as BrickField::at), brick by brick, each brick's storage looked up once per field.
+template <class Visit>
+void for_each_voxel_values(const IndicatorFields& F, int bz_begin, int bz_end, Visit&& visit) {
+  const size_t M = F.material_count();
+  const glm::ivec3 dims = F.grid.dims, bricks = F.fields[0].brick_dims();
+  constexpr int kB = BrickField::kBrick;
+  std::vector<const float*> data(M);
+  std::vector<float> constant(M), values(M);
+  for (int bz = bz_begin; bz < bz_end; ++bz)
+    for (int by = 0; by < bricks.y; ++by)
+      for (int bx = 0; bx < bricks.x; ++bx) {
+        const glm::ivec3 b(bx, by, bz);
+        for (size_t m = 0; m < M; ++m) {
+          data[m] = F.fields[m].brick_values(b);
+          constant[m] = F.fields[m].brick_constant(b);
+        }
+        const glm::ivec3 lo = b * kB, hi = glm::min(lo + kB, dims);
+        for (int k = lo.z; k < hi.z; ++k)
+          for (int j = lo.y; j < hi.y; ++j)
+            for (int i = lo.x; i < hi.x; ++i) {
+              const size_t q = size_t(((k - lo.z) * kB + (j - lo.y)) * kB + (i - lo.x));
+              for (size_t m = 0; m < M; ++m) values[m] = data[m] ? data[m][q] : constant[m];
+              visit(glm::ivec3(i, j, k), values.data());
+            }
+      }
+}
+
 // The fields of materials m[0..count) at local x, with their gradients in index units.
 void sample_feature_fields(const IndicatorFields& F, const int* m, int count, const glm::dvec3& x, double* f,
                            glm::dvec3* grad) {
@@ -588,20 +616,18 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   auto bin_of = [&](int i, int j, int kk) { return (size_t(kk / kBin) * size_t(bins.y) + size_t(j / kBin)) * size_t(bins.x) + size_t(i / kBin); };
   std::map<MaterialSet, std::vector<uint8_t>> found_in;
   std::vector<uint16_t> label_index(grid.voxel_count());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, grid.voxel_count()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v < r.end(); ++v) {
-      const glm::ivec3 c = grid.voxel(v);
+  const int brick_layers = F.fields[0].brick_dims().z;
+  tbb::parallel_for(tbb::blocked_range<int>(0, brick_layers), [&](const tbb::blocked_range<int>& r) {
+    for_each_voxel_values(F, r.begin(), r.end(), [&](const glm::ivec3& c, const float* f) {
       int best = 0;
       float bv = -1e30f;
-      for (int mm = 0; mm < M; ++mm) {
-        const float f = F.fields[size_t(mm)].at(c.x, c.y, c.z);
-        if (f > bv) {
-          bv = f;
+      for (int mm = 0; mm < M; ++mm)
+        if (f[mm] > bv) {
+          bv = f[mm];
           best = mm;
         }
-      }
-      label_index[v] = uint16_t(best);
-    }
+      label_index[grid.index(c.x, c.y, c.z)] = uint16_t(best);
+    });
   });
   // (Each z layer of dual cells in parallel; the layers' finds are then merged in layer order, so every list keeps the
   // order of one loop over the volume.)
@@ -703,22 +729,20 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
                                 " voxels deep, but their band is " + std::to_string(F.band / h) +
                                 " voxels; raise the indicator band or use more subcells");
   tbb::enumerable_thread_specific<std::vector<uint64_t>> local_entries;
-  tbb::parallel_for(tbb::blocked_range<int>(0, grid.dims.z), [&](const tbb::blocked_range<int>& r) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, brick_layers), [&](const tbb::blocked_range<int>& r) {
     auto& out = local_entries.local();
     std::vector<int> near;
-    for (int kk = r.begin(); kk < r.end(); ++kk)
-      for (int j = 0; j < grid.dims.y; ++j)
-        for (int i = 0; i < grid.dims.x; ++i) {
-          near.clear();
-          for (int mm = 0; mm < M; ++mm)
-            if (F.fields[size_t(mm)].at(i, j, kk) > -reach) near.push_back(mm);
-          for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
-            if (curves_only && bits < 3) return;
-            const auto it = feature_of.find(s);
-            if (it != feature_of.end() && near_found[it->second][bin_of(i, j, kk)])
-              out.push_back((uint64_t(grid.index(i, j, kk)) << 16) | it->second);
-          });
-        }
+    for_each_voxel_values(F, r.begin(), r.end(), [&](const glm::ivec3& c, const float* f) {
+      near.clear();
+      for (int mm = 0; mm < M; ++mm)
+        if (f[mm] > -reach) near.push_back(mm);
+      for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
+        if (curves_only && bits < 3) return;
+        const auto it = feature_of.find(s);
+        if (it != feature_of.end() && near_found[it->second][bin_of(c.x, c.y, c.z)])
+          out.push_back((uint64_t(grid.index(c.x, c.y, c.z)) << 16) | it->second);
+      });
+    });
   });
   std::vector<uint64_t> cells;
   for (auto& part : local_entries) cells.insert(cells.end(), part.begin(), part.end());

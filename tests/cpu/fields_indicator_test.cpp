@@ -269,4 +269,22 @@ TEST_CASE("cubic samples of several fields agree with a plain Catmull-Rom of the
   MESSAGE("sample_cubic_many vs reference: value " << worst << ", gradient " << worst_gradient);
   CHECK(worst < 1e-9);             // measured 7e-15
   CHECK(worst_gradient < 1e-5);    // central differences: measured 1.4e-7
+
+  // Brick by brick (the embedding's whole-volume passes read them so): the storage or the constant of each brick
+  // gives every voxel's at().
+  size_t mismatches = 0, from_data = 0;
+  for (const BrickField* f : all)
+    for (int k = 0; k < grid.dims.z; ++k)
+      for (int j = 0; j < grid.dims.y; ++j)
+        for (int i = 0; i < grid.dims.x; ++i) {
+          const glm::ivec3 brick = glm::ivec3(i, j, k) / BrickField::kBrick, o = glm::ivec3(i, j, k) - brick * BrickField::kBrick;
+          const float* data = f->brick_values(brick);
+          from_data += data != nullptr;
+          const float v = data ? data[(o.z * BrickField::kBrick + o.y) * BrickField::kBrick + o.x] : f->brick_constant(brick);
+          mismatches += v != f->at(i, j, k);
+        }
+  CHECK(mismatches == 0);
+  CHECK(from_data > 0);
+  CHECK(c.brick_values(glm::ivec3(0)) == nullptr);
+  CHECK(c.brick_constant(glm::ivec3(0)) == 0.0f);
 }
