@@ -89,10 +89,14 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
   const size_t n_tets = T.tets.size(), n_points = T.points.size();
   const double bound = options.min_dihedral * M_PI / 180;
   HostArray<uint8_t> part(n_tets);  // in the part
+  // Each tet's smallest dihedral angle, once: the tets left outside the part keep theirs (their points stay).
+  HostArray<double> smallest(n_tets);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
       const auto& k = T.tets[t];
-      part[t] = dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0] < bound;
+      const double angle = dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0];
+      part[t] = angle < bound;
+      smallest[t] = angle;
     }
   });
   if (std::find(part.begin(), part.end(), uint8_t(1)) == part.end()) return false;
@@ -158,10 +162,7 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
       tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), M_PI,
       [&](const tbb::blocked_range<size_t>& r, double m) {
         for (size_t t = r.begin(); t != r.end(); ++t)
-          if (!part[t]) {
-            const auto& k = T.tets[t];
-            m = std::min(m, dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0]);
-          }
+          if (!part[t]) m = std::min(m, smallest[t]);
         return m;
       },
       [](double a, double b) { return std::min(a, b); });
