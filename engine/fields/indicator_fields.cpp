@@ -44,10 +44,9 @@ void gaussian_pass(std::span<float> f, const glm::ivec3& n, int axis, double sig
   const int a = axis == 0 ? 1 : 0, b = axis == 2 ? 1 : 2;
   const size_t strides[3] = {1, size_t(n.x), size_t(n.x) * size_t(n.y)};
   const size_t s = strides[axis];
-  // One group of `lanes` neighbouring lines (lanes <= kWidth, the layout of `line`; more than one only along y and z,
-  // where a is x): in place,
-  // a constant line (far inside or outside, clamped at the band) left as it is (the weights sum to one, and their
-  // rounding is far below a float's).
+  // One group of `lanes` neighbouring lines (at most kWidth, the interleaving of `line`; more than one only along y
+  // and z, where a is x), in place. A constant line (far inside or outside, clamped at the band) is left as it is:
+  // the weights sum to one, and their rounding is far below a float's.
   constexpr int kLanes = 8;
   auto blur_lines = [&]<int kWidth>(float* p, int lanes, std::vector<float>& line) {
     bool constant[kWidth];
