@@ -103,8 +103,7 @@ struct MeshReport {
   std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
   std::string volume_one_run_because;  // not empty: why the materials were meshed in one run (volume_mesh.h)
   std::vector<MaterialRunTiming> volume_runs;  // time of each TetGen run and its sliver passes (volume_mesh.h)
-  std::vector<std::string> volume_unsplit_because;  // materials asked to be cut into pieces but meshed whole or in
-                                                     // fewer pieces, why
+  std::vector<std::string> volume_unsplit_because;  // materials asked to be cut into pieces but meshed whole, why
   size_t volume_separator_points = 0;               // points of the pieces' separators (split_material.h)
   size_t interfaces_manifold = 0, materials_closed = 0;
   size_t crossing_triangles = 0;  // pairs of interface triangles that cross each other (quality.h; 0 for a valid mesh)

@@ -489,110 +489,85 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
           if (u < n_surface && v < n_surface && gap_vertex[u] && gap_vertex[v]) gap_edge_tet.emplace(edge_key(u, v), t);
         }
 
-  // The pieces' boundaries from the tets' pieces: each boundary triangle, and the separator faces between inside
-  // tets of different pieces. Returns why the pieces cannot be used, or nothing; plane_thin[j] tells whether plane j
-  // crosses thin layers (below).
-  std::vector<uint32_t> new_index(D_points.size(), UINT32_MAX);
-  std::vector<uint8_t> plane_thin;
-  auto assemble = [&]() -> std::string {
-    const size_t n_pieces = out.planes.size() + 1;
-    out.pieces.assign(n_pieces, {});
-    out.volumes.assign(n_pieces, 0.0);
-    out.points.clear();
-    out.separator_triangles = out.separator_on_boundary = 0;
-    std::fill(new_index.begin(), new_index.end(), UINT32_MAX);
-    // Each boundary triangle goes to the piece of its inside tet; one that is no Delaunay face to that of a doubtful
-    // tet on one of its edges, else of its centroid.
-    for (size_t i = 0; i < tri.size(); ++i) {
-      int at = inside_tet[i] != UINT32_MAX ? piece[inside_tet[i]] : -1;
-      for (int e = 0; e < 3 && at < 0; ++e) {  // a gap: the piece of a doubtful tet on one of its edges
+  // Each boundary triangle goes to the piece of its inside tet; one that is no Delaunay face to that of a doubtful tet
+  // on one of its edges, else of its centroid.
+  out.pieces.assign(size_t(pieces), {});
+  out.volumes.assign(size_t(pieces), 0.0);
+  std::vector<int> piece_of_triangle(tri.size(), -1);
+  for (size_t i = 0; i < tri.size(); ++i) {
+    if (inside_tet[i] != UINT32_MAX) piece_of_triangle[i] = piece[inside_tet[i]];
+    if (piece_of_triangle[i] < 0)  // a gap: the piece of a doubtful tet on one of its edges
+      for (int e = 0; e < 3 && piece_of_triangle[i] < 0; ++e) {
         const auto it = gap_edge_tet.find(edge_key(tri[i][size_t(e)], tri[i][size_t((e + 1) % 3)]));
-        if (it != gap_edge_tet.end()) at = piece[it->second];
+        if (it != gap_edge_tet.end()) piece_of_triangle[i] = piece[it->second];
       }
-      if (at < 0) at = piece_at((P[tri[i][0]][axis] + P[tri[i][1]][axis] + P[tri[i][2]][axis]) / 3);
-      out.pieces[size_t(at)].push_back(boundary[i]);
-      out.volumes[size_t(at)] += cone_volume(P[tri[i][0]], P[tri[i][1]], P[tri[i][2]]);
-    }
-    // The separator: faces between inside tets of different pieces, each found from the higher piece's side.
-    auto caller_index = [&](uint32_t v) {
-      if (v < n_surface) return global[v];
-      if (new_index[v] == UINT32_MAX) {
-        new_index[v] = first_new + uint32_t(out.points.size());
-        out.points.push_back(D_points[v]);
-      }
-      return new_index[v];
-    };
-    std::vector<std::array<uint32_t, 3>> near_gap;  // separator faces of tets in doubt (local numbering)
-    std::vector<size_t> plane_triangles(out.planes.size(), 0), plane_on_boundary(out.planes.size(), 0);
-    for (size_t t = 0; t < n_tets; ++t) {
-      if (side[t] != kIn) continue;
-      const int p = piece[t];
-      for (int c = 0; c < 4; ++c) {
-        const size_t tc = t * 4 + size_t(c);
-        const uint32_t nb = adj.neighbour[tc];
-        if (wall[tc] != UINT32_MAX || nb == Adjacency::kHull || side[nb / 4] != kIn) continue;
-        const int q = piece[nb / 4];
-        if (q >= p) continue;
-        const auto& v = D.tets[t];
-        std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
-        if (doubt[t] || doubt[nb / 4]) near_gap.push_back(f);
-        // Oriented out of t (kFace's order is, for TetGen's positively oriented tets; checked, not assumed).
-        if (glm::dot(glm::cross(D_points[f[1]] - D_points[f[0]], D_points[f[2]] - D_points[f[0]]),
-                     D_points[v[size_t(c)]] - D_points[f[0]]) > 0)
-          std::swap(f[1], f[2]);
-        const double volume = cone_volume(D_points[f[0]], D_points[f[1]], D_points[f[2]]);
-        out.volumes[size_t(p)] += volume;
-        out.volumes[size_t(q)] -= volume;
-        for (auto& x : f) x = caller_index(x);
-        out.pieces[size_t(p)].push_back(f);
-        out.pieces[size_t(q)].push_back({f[0], f[2], f[1]});
-        const bool on_boundary = f[0] < first_new && f[1] < first_new && f[2] < first_new;
-        ++out.separator_triangles;
-        out.separator_on_boundary += on_boundary;
-        ++plane_triangles[size_t(q)];  // the plane above piece q (a cluster may reach further: counted there)
-        plane_on_boundary[size_t(q)] += on_boundary;
-      }
-    }
-    // Only a boundary triangle that is no Delaunay face can cross a separator face (the rest are faces of one
-    // tetrahedralization); the separator near the gaps must not.
-    if (!near_gap.empty()) {
-      const size_t first_gap_face = near_gap.size();
-      for (size_t i = 0; i < tri.size(); ++i)
-        if (!found[i]) near_gap.push_back(tri[i]);
-      for (const auto& pair : crossing_triangles(D_points, near_gap))
-        if ((pair[0] < first_gap_face) != (pair[1] < first_gap_face))
-          return "near a boundary triangle that is no Delaunay face of the boundary's vertices the separator at " +
-                 std::string("xyz").substr(size_t(axis), 1) + " = " + std::to_string(out.planes[0]) +
-                 "... crosses the boundary";
-    }
-    // Where a plane crosses thin layers the separator has no lattice point there: its triangles join the layer's two
-    // sides, both pieces must keep them, and the slivers along them outlast every pass (100^3 head phantom: its
-    // thin-layered material 1 cut in six had 45% of such triangles over all planes and left 280 tets under 12
-    // degrees against 19 whole; thick materials 0-5%, the phantom's other materials 16-24%).
-    plane_thin.assign(out.planes.size(), 0);
-    for (size_t j = 0; j < out.planes.size(); ++j)
-      plane_thin[j] = double(plane_on_boundary[j]) > kThinShare * double(plane_triangles[j]);
-    return {};
-  };
-  if (std::string why = assemble(); !why.empty()) return refuse(why);
-  // Planes that cross thin layers are dropped, the pieces on their two sides made one, and the rest kept: refused
-  // only where every plane does.
-  if (std::find(plane_thin.begin(), plane_thin.end(), uint8_t(0)) == plane_thin.end())
-    return refuse("the cut at " + std::string("xyz").substr(size_t(axis), 1) + " = " + std::to_string(out.planes[0]) +
-                  (out.planes.size() > 1 ? " and every other cut cross" : " crosses") + " thin layers (more than " +
-                  std::to_string(int(kThinShare * 100)) + "% of the separator triangles join boundary vertices only)");
-  if (std::find(plane_thin.begin(), plane_thin.end(), uint8_t(1)) != plane_thin.end()) {
-    std::vector<int> merged(out.planes.size() + 1, 0);  // old piece -> new piece
-    std::vector<double> kept_planes;
-    for (size_t j = 0; j < out.planes.size(); ++j) {
-      merged[j + 1] = merged[j] + (plane_thin[j] ? 0 : 1);
-      if (!plane_thin[j]) kept_planes.push_back(out.planes[j]);
-      else out.dropped_planes.push_back(out.planes[j]);
-    }
-    for (int& p : piece) p = merged[size_t(p)];
-    out.planes = std::move(kept_planes);
-    if (std::string why = assemble(); !why.empty()) return refuse(why);
+    if (piece_of_triangle[i] < 0) piece_of_triangle[i] = piece_at((P[tri[i][0]][axis] + P[tri[i][1]][axis] + P[tri[i][2]][axis]) / 3);
+    out.pieces[size_t(piece_of_triangle[i])].push_back(boundary[i]);
+    out.volumes[size_t(piece_of_triangle[i])] += cone_volume(P[tri[i][0]], P[tri[i][1]], P[tri[i][2]]);
   }
+
+  // The separator: faces between inside tets of different pieces, each found from the higher piece's side.
+  std::vector<uint32_t> new_index(D_points.size(), UINT32_MAX);
+  auto caller_index = [&](uint32_t v) {
+    if (v < n_surface) return global[v];
+    if (new_index[v] == UINT32_MAX) {
+      new_index[v] = first_new + uint32_t(out.points.size());
+      out.points.push_back(D_points[v]);
+    }
+    return new_index[v];
+  };
+  std::vector<std::array<uint32_t, 3>> near_gap;  // separator faces of tets in doubt (local numbering)
+  std::vector<size_t> plane_triangles(out.planes.size(), 0), plane_on_boundary(out.planes.size(), 0);
+  for (size_t t = 0; t < n_tets; ++t) {
+    if (side[t] != kIn) continue;
+    const int p = piece[t];
+    for (int c = 0; c < 4; ++c) {
+      const size_t tc = t * 4 + size_t(c);
+      const uint32_t nb = adj.neighbour[tc];
+      if (wall[tc] != UINT32_MAX || nb == Adjacency::kHull || side[nb / 4] != kIn) continue;
+      const int q = piece[nb / 4];
+      if (q >= p) continue;
+      const auto& v = D.tets[t];
+      std::array<uint32_t, 3> f = {v[size_t(kFace[c][0])], v[size_t(kFace[c][1])], v[size_t(kFace[c][2])]};
+      if (doubt[t] || doubt[nb / 4]) near_gap.push_back(f);
+      // Oriented out of t (kFace's order is, for TetGen's positively oriented tets; checked, not assumed).
+      if (glm::dot(glm::cross(D_points[f[1]] - D_points[f[0]], D_points[f[2]] - D_points[f[0]]),
+                   D_points[v[size_t(c)]] - D_points[f[0]]) > 0)
+        std::swap(f[1], f[2]);
+      const double volume = cone_volume(D_points[f[0]], D_points[f[1]], D_points[f[2]]);
+      out.volumes[size_t(p)] += volume;
+      out.volumes[size_t(q)] -= volume;
+      for (auto& x : f) x = caller_index(x);
+      out.pieces[size_t(p)].push_back(f);
+      out.pieces[size_t(q)].push_back({f[0], f[2], f[1]});
+      const bool on_boundary = f[0] < first_new && f[1] < first_new && f[2] < first_new;
+      ++out.separator_triangles;
+      out.separator_on_boundary += on_boundary;
+      ++plane_triangles[size_t(q)];  // the plane above piece q (a cluster may reach further: counted there)
+      plane_on_boundary[size_t(q)] += on_boundary;
+    }
+  }
+  // Only a boundary triangle that is no Delaunay face can cross a separator face (the rest are faces of one
+  // tetrahedralization); the separator near the gaps must not.
+  if (!near_gap.empty()) {
+    const size_t first_gap_face = near_gap.size();
+    for (size_t i = 0; i < tri.size(); ++i)
+      if (!found[i]) near_gap.push_back(tri[i]);
+    for (const auto& pair : crossing_triangles(D_points, near_gap))
+      if ((pair[0] < first_gap_face) != (pair[1] < first_gap_face))
+        return refuse("near a boundary triangle that is no Delaunay face of the boundary's vertices the separator at " +
+                      std::string("xyz").substr(size_t(axis), 1) + " = " + std::to_string(out.planes[0]) +
+                      "... crosses the boundary");
+  }
+  // Where a plane crosses thin layers the separator has no lattice point there: its triangles join the layer's two
+  // sides, both pieces must keep them, and the slivers along them outlast every pass (100^3 head phantom: its
+  // thin-layered material 1 cut in six had 45% of such triangles over all planes and left 280 tets under 12 degrees
+  // against 19 whole; thick materials 0-5%, the phantom's other materials 16-24%).
+  for (size_t j = 0; j < out.planes.size(); ++j)
+    if (double(plane_on_boundary[j]) > kThinShare * double(plane_triangles[j]))
+      return refuse("the cut at " + std::string("xyz").substr(size_t(axis), 1) + " = " + std::to_string(out.planes[j]) +
+                    " crosses thin layers (" + std::to_string(plane_on_boundary[j]) + " of its " +
+                    std::to_string(plane_triangles[j]) + " separator triangles join boundary vertices only)");
   for (size_t p = 0; p < out.pieces.size(); ++p) {
     if (out.pieces[p].empty()) return refuse("piece " + std::to_string(p) + " is empty");
     if (odd_edges(out.pieces[p]) != 0) return refuse("the boundary of piece " + std::to_string(p) + " is not closed");

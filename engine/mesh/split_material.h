@@ -24,11 +24,9 @@
 // It refuses (MaterialSplit::refused says why; the caller meshes the material whole) where it cannot vouch for the
 // pieces: a boundary that is not closed, planes that coincide or cross no boundary triangle, a separator face that
 // crosses a boundary triangle that is no Delaunay face, an empty piece or one whose boundary is not closed; and where
-// it would make a poor mesh: where every plane's separator has more than 30% of its triangles joining boundary
-// vertices only (the plane crosses thin layers, where both pieces must keep triangles spanning the layer and the
-// slivers along them outlast every sliver pass). Where only some planes do, those are dropped and the pieces on
-// their two sides made one (MaterialSplit::dropped_planes): fewer, larger pieces, still more than one run. It throws
-// where the points cannot be tetrahedralized at all (fewer than 4, or flat).
+// it would make a poor mesh: a plane's separator of which more than 30% of the triangles join boundary vertices only
+// (the plane crosses thin layers, where both pieces must keep triangles spanning the layer and the slivers along them
+// outlast every sliver pass). It throws where the points cannot be tetrahedralized at all (fewer than 4, or flat).
 // The cut's Delaunay tetrahedralization runs on every core (delaunay.h), in this process: materials may be cut on
 // several threads at once.
 //
@@ -57,7 +55,6 @@ struct MaterialSplit {
   size_t gap_triangles = 0;     // boundary triangles that are no Delaunay face of the cut's tetrahedralization
   int axis = 0;                 // the planes' normal (0: x, 1: y, 2: z)
   std::vector<double> planes;   // where they cut that axis
-  std::vector<double> dropped_planes;  // planes placed but dropped: they crossed thin layers (below)
   std::string refused;          // not empty: why the material was not split (pieces and points are then empty)
 };
 

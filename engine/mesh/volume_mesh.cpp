@@ -354,7 +354,6 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   std::vector<MaterialSplit> splits(jobs.size());
   std::vector<std::vector<glm::dvec3>> run_points(jobs.size());  // per cut material: points, then its separator points
   std::vector<std::string> unsplit(jobs.size());
-  std::vector<std::string> fewer(jobs.size());  // a material cut into fewer pieces than asked, why
   std::vector<MaterialMeshes> parts(runs_of.size());
   std::vector<std::string> errors(runs_of.size());
   auto input_of = [&](size_t r) -> const std::vector<glm::dvec3>& {
@@ -403,13 +402,6 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
                    (split.refused.empty() ? std::string("no pieces") : split.refused);
       whole(j);
       return;
-    }
-    if (!split.dropped_planes.empty()) {
-      std::string at;
-      for (double c : split.dropped_planes) at += (at.empty() ? "" : ", ") + std::to_string(c);
-      fewer[j] = "material " + std::to_string(labels[m]) + " in " + std::to_string(split.pieces.size()) +
-                 " pieces instead of " + std::to_string(pieces_of[j]) + ": the cuts at " +
-                 std::string("xyz").substr(size_t(split.axis), 1) + " = " + at + " cross thin layers";
     }
     run_points[j].reserve(points.size() + split.points.size());
     run_points[j] = points;
@@ -503,9 +495,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   out.runs_seconds = std::max(0.0, seconds_since(t_start) - cut_seconds);
   const auto t_seams = clock::now();
   out.one_run_because = one_run_because;
-  for (size_t j = 0; j < jobs.size(); ++j)
-    if (!unsplit[j].empty()) out.unsplit_because.push_back(unsplit[j]);
-    else if (!fewer[j].empty()) out.unsplit_because.push_back(fewer[j]);
+  for (const auto& u : unsplit)
+    if (!u.empty()) out.unsplit_because.push_back(u);
   bool any_piece = false;
   for (const MaterialMeshes& r : merged)
     for (const auto& run : r.runs) any_piece = any_piece || run.pieces > 1;

@@ -61,8 +61,7 @@ struct MaterialMeshes {
   TetImproveReport improvement;  // smallest dihedral angles over all materials, moves summed
   SliverSplitReport sliver_split;
   std::string one_run_because;  // not empty: a material failed alone (why), so all were meshed in one run
-  std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole or in fewer pieces
-                                             // (split_material.h), one line each
+  std::vector<std::string> unsplit_because;  // why a material asked to be cut was meshed whole, one line each
   size_t separator_points = 0;               // the lattice points the separators were made with (split_material.h)
   // Where the time went: cutting materials into pieces; the runs (TetGen and their sliver passes, in parallel, with
   // the whole-material reruns); merging, and the sliver passes over the seams where pieces were made (seam_passes).

@@ -195,54 +195,6 @@ TEST_CASE("split_material: refuses a cut across a thin layer") {
   CHECK(cut.separator_on_boundary * 10 < cut.separator_triangles);
 }
 
-TEST_CASE("split_material: a plane across a thin layer is dropped, the planes across thick parts kept") {
-  // One material in two parts along x: a ball of radius 10 (at x = -12) and a shell 0.5 thick (radii 5 and 4.5, at
-  // x = 15), with about the same edge length. Most of the estimated work is in the ball, so of 3 planes two cut the
-  // ball and the third the shell, where no lattice point fits: that one goes, its two pieces become one.
-  auto add = [](std::vector<glm::dvec3>& points, std::vector<std::array<uint32_t, 3>>& boundary, const Sphere& s,
-                const glm::dvec3& at) {
-    const auto base = uint32_t(points.size());
-    for (const auto& p : s.points) points.push_back(p + at);
-    for (auto t : s.triangles) boundary.push_back({t[0] + base, t[1] + base, t[2] + base});
-  };
-  std::vector<glm::dvec3> points;
-  std::vector<std::array<uint32_t, 3>> boundary;
-  add(points, boundary, icosphere(10.0, 4, false), {-12, 0, 0});
-  add(points, boundary, icosphere(5.0, 3, false), {15, 0, 0});
-  add(points, boundary, icosphere(4.5, 3, true), {15, 0, 0});
-  const auto split = mesh::split_material(points, boundary, 4, uint32_t(points.size()));
-  REQUIRE(split.refused.empty());
-  REQUIRE(split.dropped_planes.size() == 1);
-  CHECK(split.dropped_planes[0] > 10.0);  // across the shell
-  REQUIRE(split.planes.size() == 2);
-  for (double c : split.planes) CHECK(c < -2.0);  // across the ball
-  REQUIRE(split.pieces.size() == 3);
-  // Closed pieces filling the material: the ball and the shell's volumes.
-  const double whole = enclosed_volume(points, boundary);
-  CHECK(whole == doctest::Approx(4.0 / 3.0 * M_PI * (1000.0 + 125.0 - 91.125)).epsilon(0.03));
-  double sum = 0;
-  for (size_t p = 0; p < split.pieces.size(); ++p) {
-    std::vector<glm::dvec3> all = points;
-    all.insert(all.end(), split.points.begin(), split.points.end());
-    CHECK(split.volumes[p] == doctest::Approx(enclosed_volume(all, split.pieces[p])).epsilon(1e-9));
-    sum += split.volumes[p];
-  }
-  CHECK(sum == doctest::Approx(whole).epsilon(1e-9));
-  // The shell is whole in the last piece: none of its vertices is in another piece.
-  const auto shell_first = uint32_t(icosphere(10.0, 4, false).points.size());
-  for (size_t p = 0; p + 1 < split.pieces.size(); ++p)
-    for (const auto& t : split.pieces[p])
-      for (uint32_t v : t) CHECK((v < shell_first || v >= uint32_t(points.size())));
-  CHECK(split.separator_on_boundary * 10 < split.separator_triangles);
-  // Every plane across the shell: refused, as before.
-  std::vector<glm::dvec3> shell_points;
-  std::vector<std::array<uint32_t, 3>> shell;
-  add(shell_points, shell, icosphere(10.0, 4, false), {0, 0, 0});
-  add(shell_points, shell, icosphere(9.3, 4, true), {0, 0, 0});
-  const auto refused = mesh::split_material(shell_points, shell, 3, uint32_t(shell_points.size()));
-  CHECK(refused.refused.find("thin layers") != std::string::npos);
-}
-
 namespace {
 
 // An ellipsoid 1.5 times as long along x as across, holding flat cavities (spheres of radius 3 squashed to 0.12 of
@@ -525,61 +477,6 @@ TEST_CASE("mesh_materials: a refused cut meshes its material whole beside anothe
     mixed += who.size() == 2 && *who.begin() != *who.rbegin();
   }
   CHECK(unpaired == outer.triangles.size());
-  CHECK(mixed == inner.triangles.size());
-  CHECK(r.sliver_split.failed == mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral));
-}
-
-TEST_CASE("mesh_materials: a material whose cut crosses a thin layer in one place runs in fewer pieces, not whole") {
-  // Material 1 (label 7): a ball of radius 10 at x = -12 and a shell 0.5 thick (radii 5 and 4.5) at x = 15; material
-  // 2 (label 9) the ball inside the shell. Material 1 gets four runs of five; the plane across the shell is dropped.
-  const Sphere ball = icosphere(10.0, 4, false), outer = icosphere(5.0, 3, false), inner = icosphere(4.5, 3, false);
-  std::vector<glm::dvec3> points;
-  std::vector<std::array<uint32_t, 3>> triangles;
-  std::vector<std::array<uint16_t, 2>> pair;
-  auto add = [&](const Sphere& s, const glm::dvec3& at, std::array<uint16_t, 2> sides) {
-    const auto base = uint32_t(points.size());
-    for (const auto& p : s.points) points.push_back(p + at);
-    for (auto t : s.triangles) {
-      triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
-      pair.push_back(sides);  // the normal (outward) points out of sides[0]
-    }
-  };
-  add(ball, {-12, 0, 0}, {1, 0});
-  add(outer, {15, 0, 0}, {1, 0});
-  add(inner, {15, 0, 0}, {2, 1});
-  const std::vector<mesh::Region> seeds = {{glm::dvec3(-12, 0, 0), 2}, {glm::dvec3(15, 0, 0), 3}};
-  const std::vector<uint16_t> labels = {0, 7, 9};
-  mesh::QualityOptions options;
-  options.runs = 5;
-  options.min_piece_triangles = 1000;
-  const auto r = mesh::mesh_materials(points, triangles, pair, seeds, labels, options);
-  REQUIRE(r.unsplit_because.size() == 1);
-  CHECK(r.unsplit_because[0].find("material 7 in 3 pieces instead of 4") == 0);
-  CHECK(r.unsplit_because[0].find("thin layers") != std::string::npos);
-  CHECK(r.one_run_because.empty());
-  size_t pieces = 0, whole = 0;
-  for (const auto& run : r.runs) {
-    pieces += run.material == 1 && run.pieces == 3;
-    whole += run.material == 2 && run.pieces == 1;
-  }
-  CHECK(pieces == 3);
-  CHECK(whole == 1);
-  // The volumes per material, and conforming: every outer triangle a face of one tet, every inner one of two.
-  const mesh::Tets& T = r.tets;
-  REQUIRE(T.region.size() == T.tets.size());
-  auto [volume, faces] = tally(T);
-  const double ball_volume = enclosed_volume(ball.points, ball.triangles),
-               outer_volume = enclosed_volume(outer.points, outer.triangles),
-               inner_volume = enclosed_volume(inner.points, inner.triangles);
-  CHECK(volume.size() == 2);
-  CHECK(volume[2] == doctest::Approx(ball_volume + outer_volume - inner_volume).epsilon(1e-9));
-  CHECK(volume[3] == doctest::Approx(inner_volume).epsilon(1e-9));
-  size_t unpaired = 0, mixed = 0;
-  for (const auto& [f, who] : faces) {
-    unpaired += who.size() == 1;
-    mixed += who.size() == 2 && *who.begin() != *who.rbegin();
-  }
-  CHECK(unpaired == ball.triangles.size() + outer.triangles.size());
   CHECK(mixed == inner.triangles.size());
   CHECK(r.sliver_split.failed == mesh::count_below_dihedral(T.points, T.tets, options.min_dihedral));
 }
