@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include <tbb/blocked_range.h>
+#include <tbb/blocked_range2d.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -27,17 +28,23 @@ namespace {
 using MaterialSet = std::array<uint16_t, 4>;
 constexpr uint16_t kNone = 0xffff;
 
-// Every voxel of brick layers [bz_begin, bz_end) with the values of all fields there: visit(voxel, values), values[m]
-// = fields[m] at the voxel (as BrickField::at), brick by brick, each brick's storage looked up once per field.
+// Every voxel of the bricks in rows r (z, y of bricks; every x) with the values of all fields there: visit(voxel,
+// values), values[m] = fields[m] at the voxel (as BrickField::at), brick by brick, each brick's storage looked up once
+// per field. The fields share the grid, so their bricks (fields_brick_rows: the range to split among threads).
+tbb::blocked_range2d<int> fields_brick_rows(const IndicatorFields& F) {
+  const glm::ivec3 bricks = F.fields.empty() ? glm::ivec3(0) : F.fields[0].brick_dims();
+  return tbb::blocked_range2d<int>(0, bricks.z, 0, bricks.y);
+}
 template <class Visit>
-void for_each_voxel_values(const IndicatorFields& F, int bz_begin, int bz_end, Visit&& visit) {
+void for_each_voxel_values(const IndicatorFields& F, const tbb::blocked_range2d<int>& r, Visit&& visit) {
   const size_t M = F.material_count();
+  if (M == 0) return;
   const glm::ivec3 dims = F.grid.dims, bricks = F.fields[0].brick_dims();
   constexpr int kB = BrickField::kBrick;
   std::vector<const float*> data(M);
   std::vector<float> constant(M), values(M);
-  for (int bz = bz_begin; bz < bz_end; ++bz)
-    for (int by = 0; by < bricks.y; ++by)
+  for (int bz = r.rows().begin(); bz < r.rows().end(); ++bz)
+    for (int by = r.cols().begin(); by < r.cols().end(); ++by)
       for (int bx = 0; bx < bricks.x; ++bx) {
         const glm::ivec3 b(bx, by, bz);
         for (size_t m = 0; m < M; ++m) {
@@ -616,9 +623,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   auto bin_of = [&](int i, int j, int kk) { return (size_t(kk / kBin) * size_t(bins.y) + size_t(j / kBin)) * size_t(bins.x) + size_t(i / kBin); };
   std::map<MaterialSet, std::vector<uint8_t>> found_in;
   std::vector<uint16_t> label_index(grid.voxel_count());
-  const int brick_layers = F.fields[0].brick_dims().z;
-  tbb::parallel_for(tbb::blocked_range<int>(0, brick_layers), [&](const tbb::blocked_range<int>& r) {
-    for_each_voxel_values(F, r.begin(), r.end(), [&](const glm::ivec3& c, const float* f) {
+  tbb::parallel_for(fields_brick_rows(F), [&](const tbb::blocked_range2d<int>& r) {
+    for_each_voxel_values(F, r, [&](const glm::ivec3& c, const float* f) {
       int best = 0;
       float bv = -1e30f;
       for (int mm = 0; mm < M; ++mm)
@@ -729,10 +735,10 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
                                 " voxels deep, but their band is " + std::to_string(F.band / h) +
                                 " voxels; raise the indicator band or use more subcells");
   tbb::enumerable_thread_specific<std::vector<uint64_t>> local_entries;
-  tbb::parallel_for(tbb::blocked_range<int>(0, brick_layers), [&](const tbb::blocked_range<int>& r) {
+  tbb::parallel_for(fields_brick_rows(F), [&](const tbb::blocked_range2d<int>& r) {
     auto& out = local_entries.local();
     std::vector<int> near;
-    for_each_voxel_values(F, r.begin(), r.end(), [&](const glm::ivec3& c, const float* f) {
+    for_each_voxel_values(F, r, [&](const glm::ivec3& c, const float* f) {
       near.clear();
       for (int mm = 0; mm < M; ++mm)
         if (f[mm] > -reach) near.push_back(mm);

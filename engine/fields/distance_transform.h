@@ -12,8 +12,9 @@ namespace cpmesh::fields {
 
 // in/out: on input, 0 at seed voxels and +infinity (or any large value) elsewhere; on output, the squared physical
 // distance from each voxel centre to the nearest seed centre. Sizes: grid.voxel_count().
-// cap (physical, optional): a caller that reads nothing beyond this distance. Every voxel within cap of a seed still
-// gets its exact value; one farther off gets a value above cap^2, possibly +infinity. Each pass then drops the
+// cap (physical, optional): a caller that reads nothing beyond this distance. Every voxel whose value would be
+// under cap^2 (a hair over: rounding margin) still gets it exactly; the others get a value at least that, possibly
+// +infinity. Each pass then drops the
 // samples already farther than cap along its line (their parabolas cannot reach under cap^2), so lines away from
 // every seed are skipped: the fields clamp their distances at a band of a few voxels.
 void squared_distance_transform(const Grid& grid, std::span<float> values,

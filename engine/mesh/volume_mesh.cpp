@@ -45,7 +45,7 @@ double boundary_work(const std::vector<glm::dvec3>& points, const std::vector<st
   for (const auto& t : triangles)
     perimeter += glm::length(points[t[0]] - points[t[1]]) + glm::length(points[t[1]] - points[t[2]]) +
                  glm::length(points[t[2]] - points[t[0]]);
-  return estimated_tets(double(triangles.size()) / 2, volume, perimeter / double(3 * triangles.size()));
+  return estimated_tets(double(triangles.size()) / 2, std::max(0.0, volume), perimeter / double(3 * triangles.size()));
 }
 
 // The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
