@@ -1,5 +1,6 @@
 #include "fields/distance_transform.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -13,10 +14,11 @@ void squared_distance_1d(float* f, int n, size_t stride, double spacing, int* v,
   // Lower envelope of parabolas y = f(q) + (spacing * (x - q))^2 over sample positions q with finite f.
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double s2 = spacing * spacing;
+  const double limit = std::min(1e30, cap2);  // samples at or above it: no seed (or none within the cap)
   int k = -1;
   for (int q = 0; q < n; ++q) {
     const double fq = f[size_t(q) * stride];
-    if (!(fq < 1e30) || !(fq < cap2)) continue;  // no seed on this sample (or none within the cap): no parabola
+    if (!(fq < limit)) continue;  // contributes no parabola
     if (k < 0) {
       k = 0;
       v[0] = q;

@@ -36,16 +36,15 @@ struct Job {
   double work = 0;  // estimated tets (estimated_tets): the runs start largest first
 };
 
-// estimated_tets of a closed boundary enclosing `volume` (a closed triangle mesh of genus 0 has half as many
-// vertices as triangles).
-double boundary_work(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                     double volume) {
-  if (triangles.empty()) return 0;
-  double perimeter = 0;
-  for (const auto& t : triangles)
-    perimeter += glm::length(points[t[0]] - points[t[1]]) + glm::length(points[t[1]] - points[t[2]]) +
-                 glm::length(points[t[2]] - points[t[0]]);
-  return estimated_tets(double(triangles.size()) / 2, std::max(0.0, volume), perimeter / double(3 * triangles.size()));
+double perimeter(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  return glm::length(a - b) + glm::length(b - c) + glm::length(c - a);
+}
+
+// estimated_tets of a closed boundary of `triangles` triangles, their perimeters summing to `perimeters`, enclosing
+// `volume` (a closed triangle mesh of genus 0 has half as many vertices as triangles); 0 for no triangle.
+double boundary_work(size_t triangles, double perimeters, double volume) {
+  if (triangles == 0) return 0;
+  return estimated_tets(double(triangles) / 2, std::max(0.0, volume), perimeters / double(3 * triangles));
 }
 
 // The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
@@ -266,19 +265,17 @@ std::vector<double> material_work(const std::vector<glm::dvec3>& points, const s
   for (size_t i = 0; i < triangles.size(); ++i) {
     const glm::dvec3 &a = points[triangles[i][0]], &b = points[triangles[i][1]], &c = points[triangles[i][2]];
     const double cone = glm::dot(a - apex, glm::cross(b - apex, c - apex)) / 6;
-    const double perimeter = glm::length(a - b) + glm::length(b - c) + glm::length(c - a);
+    const double edge_sum = perimeter(a, b, c);
     for (int side = 0; side < 2; ++side) {
       const uint16_t m = pair[i][size_t(side)];
       if (m >= materials) continue;
       volume[m] += side == 0 ? cone : -cone;  // the normal points out of pair[i][0]
-      edges[m] += perimeter;
+      edges[m] += edge_sum;
       ++count[m];
     }
   }
   std::vector<double> work(materials, 0.0);
-  for (size_t m = 0; m < materials; ++m)
-    if (count[m] > 0)
-      work[m] = estimated_tets(double(count[m]) / 2, std::max(0.0, volume[m]), edges[m] / double(3 * count[m]));
+  for (size_t m = 0; m < materials; ++m) work[m] = boundary_work(count[m], edges[m], volume[m]);
   return work;
 }
 
@@ -409,9 +406,11 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     for (size_t p = 0; p < split.pieces.size(); ++p) {
       // The material's own seeds are holes for nothing here; other materials' seeds carve their cavities.
       const size_t r = first_run[j] + p;
+      double edges = 0;
+      for (const auto& t : split.pieces[p]) edges += perimeter(run_points[j][t[0]], run_points[j][t[1]], run_points[j][t[2]]);
+      const double work = boundary_work(split.pieces[p].size(), edges, split.volumes[p]);
       runs_of[r] = {jobs[j].material, std::move(split.pieces[p]), {}, jobs[j].holes, uint16_t(p),
-                    uint16_t(split.pieces.size()), split.volumes[p], 0.0};
-      runs_of[r].work = boundary_work(run_points[j], runs_of[r].triangles, split.volumes[p]);
+                    uint16_t(split.pieces.size()), split.volumes[p], work};
       active[r] = 1;
     }
   };
