@@ -109,6 +109,8 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
     const BrickField& f = *fields[m];
     const float* data[2][2][2];
     float constant[2][2][2];
+    bool zero = true;  // every brick constant 0 (a junction offset away from the curves): the sample is 0, and so
+                       // is its gradient, without the gather
     for (int c = 0; c < 2; ++c)
       for (int b = 0; b < 2; ++b)
         for (int a = 0; a < 2; ++a) {
@@ -118,7 +120,13 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
           const int32_t slot = f.slot_[brick];
           data[c][b][a] = slot < 0 ? nullptr : f.data_.data() + size_t(slot) * kBrickVoxels;
           constant[c][b][a] = f.constant_[brick];
+          zero = zero && slot < 0 && constant[c][b][a] == 0.0f;
         }
+    if (zero) {
+      values[m] = 0.0;
+      if (gradients) gradients[m] = glm::dvec3(0.0);
+      continue;
+    }
     double v = 0;
     glm::dvec3 g(0.0);
     for (int c = 0; c < 4; ++c)

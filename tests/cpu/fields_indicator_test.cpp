@@ -214,7 +214,9 @@ TEST_CASE("cubic samples of several fields agree with a plain Catmull-Rom of the
   // sample_cubic_many gathers by brick, up to 8 per field, resolved once per call (constant bricks have no data):
   // compare with the textbook tricubic on voxel values read one by one with at().
   const Grid grid{{21, 19, 18}, {1.0, 1.0, 1.0}, {0.0, 0.0, 0.0}};
-  BrickField a(grid, -4.0f), b(grid, 2.5f), c(grid, 0.0f);  // c: constant everywhere
+  // c: constant everywhere; d: 0 but in one corner's bricks (a junction offset's shape: a sample whose bricks are all
+  // constant 0 skips the gather, and next to the corner it must not)
+  BrickField a(grid, -4.0f), b(grid, 2.5f), c(grid, 0.0f), d(grid, 0.0f);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> value(-4.0f, 4.0f);
   // a: allocated bricks with varied values except the brick at the origin and the last along x (constant); b: a
@@ -225,6 +227,7 @@ TEST_CASE("cubic samples of several fields agree with a plain Catmull-Rom of the
         const bool constant_brick = (i < 8 && j < 8 && k < 8) || i >= 16;
         if (!constant_brick) a.set(i, j, k, value(rng));
         if (j >= 8) b.set(i, j, k, float(0.3 * i - 0.2 * j + 0.1 * k * k / 10.0));
+        if (i >= 16 && j >= 8 && k >= 8) d.set(i, j, k, value(rng));
       }
   auto catmull_rom = [](double t, int s) {  // weight of sample s (0..3 at -1, 0, 1, 2) at t
     const double t2 = t * t, t3 = t2 * t;
@@ -243,17 +246,17 @@ TEST_CASE("cubic samples of several fields agree with a plain Catmull-Rom of the
                double(f.at(base.x + x - 1, base.y + y - 1, base.z + z - 1));
     return v;
   };
-  const BrickField* all[3] = {&a, &b, &c};
+  const BrickField* all[4] = {&a, &b, &c, &d};
   std::uniform_real_distribution<double> u(-1.5, 1.0);
   double worst = 0, worst_gradient = 0;
   for (int n = 0; n < 4000; ++n) {
     // Anywhere in the grid and up to 1.5 voxels beyond its faces (clamped samples).
     const glm::dvec3 p((grid.dims.x + 1.5) * (u(rng) + 1.5) / 2.5 - 1.5, (grid.dims.y + 1.5) * (u(rng) + 1.5) / 2.5 - 1.5,
                        (grid.dims.z + 1.5) * (u(rng) + 1.5) / 2.5 - 1.5);
-    double values[3];
-    glm::dvec3 gradients[3];
-    BrickField::sample_cubic_many(all, 3, p, values, gradients);
-    for (int m = 0; m < 3; ++m) {
+    double values[4];
+    glm::dvec3 gradients[4];
+    BrickField::sample_cubic_many(all, 4, p, values, gradients);
+    for (int m = 0; m < 4; ++m) {
       worst = std::max(worst, std::fabs(values[m] - reference(*all[m], p)));
       // The gradient against central differences of the reference (Catmull-Rom is C1).
       for (int axis = 0; axis < 3; ++axis) {
