@@ -301,36 +301,53 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
       for (int y = ca.y; y <= cb.y; ++y)
         for (int x = ca.x; x <= cb.x; ++x) visit(cell_index({x, y, z}));
   };
-  const Grouped in_cell = group_by_key(
-      cells, nt,
-      [&](size_t t, auto&& add) {
-        glm::dvec3 a, b;
-        box(T[t], a, b);
-        for_cells(a, b, add);
-      },
-      false);
-  // Every triangle's box, once, in one array (the candidates' own triangles and vertices are scattered in memory).
-  HostArray<std::array<glm::dvec3, 2>> boxes(nt);
+  // Every triangle's box, once, rounded outward to float: the boxes put the triangles in cells and filter the pairs,
+  // and a box a little larger than the exact one only lets through a few more pairs, which the exact test rejects.
+  using Box = std::array<glm::vec3, 2>;
+  HostArray<Box> boxes(nt);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t t = r.begin(); t < r.end(); ++t) box(T[t], boxes[t][0], boxes[t][1]);
-  });
-  tbb::enumerable_thread_specific<std::vector<std::array<uint32_t, 2>>> found;
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 256), [&](const tbb::blocked_range<uint32_t>& r) {
-    auto& mine = found.local();
     for (uint32_t t = r.begin(); t < r.end(); ++t) {
-      if (only && !(*only)[t]) continue;
-      const glm::dvec3 &a = boxes[t][0], &b = boxes[t][1];
-      for_cells(a, b, [&](size_t c) {
-        for (uint32_t u : in_cell[c]) {
-          if (u == t || (u < t && (!only || (*only)[u]))) continue;  // each pair once
-          const glm::dvec3 &ulo = boxes[u][0], &uhi = boxes[u][1];
+      glm::dvec3 a, b;
+      box(T[t], a, b);
+      for (int k = 0; k < 3; ++k) {
+        float down = float(a[k]), up = float(b[k]);
+        if (double(down) > a[k]) down = std::nextafter(down, -std::numeric_limits<float>::infinity());
+        if (double(up) < b[k]) up = std::nextafter(up, std::numeric_limits<float>::infinity());
+        boxes[t][0][k] = down;
+        boxes[t][1][k] = up;
+      }
+    }
+  });
+  const Grouped in_cell = group_by_key(
+      cells, nt, [&](size_t t, auto&& add) { for_cells(glm::dvec3(boxes[t][0]), glm::dvec3(boxes[t][1]), add); },
+      false);
+  // The boxes again in the cells' order, so that a cell's pairs read consecutive memory: read through the
+  // triangles' own order, the candidates' boxes were scattered over the whole array (most of this function's time
+  // went to those cache misses on meshes of millions of triangles).
+  HostArray<Box> cell_boxes(in_cell.list.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, in_cell.list.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k) cell_boxes[k] = boxes[in_cell.list[k]];
+  });
+  // Every pair of triangles in one cell whose boxes meet, where at least one is flagged (`only`). Two boxes that
+  // meet share the cell of their overlap's lowest corner (each lies in it): the pair is tested there only.
+  tbb::enumerable_thread_specific<std::vector<std::array<uint32_t, 2>>> found;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, cells, 64), [&](const tbb::blocked_range<size_t>& r) {
+    auto& mine = found.local();
+    for (size_t c = r.begin(); c < r.end(); ++c) {
+      const size_t first = in_cell.begin[c], last = in_cell.begin[c + 1];
+      for (size_t i = first; i + 1 < last; ++i) {
+        const uint32_t t = in_cell.list[i];
+        const bool t_flagged = !only || (*only)[t];
+        const glm::vec3 &a = cell_boxes[i][0], &b = cell_boxes[i][1];
+        for (size_t j = i + 1; j < last; ++j) {
+          const uint32_t u = in_cell.list[j];
+          if (!t_flagged && !(*only)[u]) continue;
+          const glm::vec3 &ulo = cell_boxes[j][0], &uhi = cell_boxes[j][1];
           if (glm::any(glm::lessThan(uhi, a)) || glm::any(glm::greaterThan(ulo, b))) continue;
-          // Two boxes that meet share the cell of their overlap's lowest corner (each lies in it): the pair is
-          // tested there only, without collecting and deduplicating a triangle's candidates.
-          if (cell_index(cell_of(glm::max(a, ulo))) != c) continue;
+          if (cell_index(cell_of(glm::dvec3(glm::max(a, ulo)))) != c) continue;
           if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
         }
-      });
+      }
     }
   });
   for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
