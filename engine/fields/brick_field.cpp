@@ -149,6 +149,35 @@ void BrickField::sample_cubic_many(const BrickField* const* fields, int count, c
   }
 }
 
+void BrickField::sample_linear_many(const BrickField* const* fields, int count, const glm::dvec3& p, double* values) {
+  if (count <= 0) return;
+  const BrickField& f0 = *fields[0];
+  const glm::dvec3 fl = glm::floor(p);
+  const glm::ivec3 b(fl);
+  const glm::dvec3 t = p - fl;
+  // The corners as at() clamps them, in sample_linear's order, with its weights multiplied in its order.
+  size_t brick[8], offset[8];
+  double weight[8];
+  for (int c = 0, n = 0; c < 2; ++c)
+    for (int bb = 0; bb < 2; ++bb)
+      for (int a = 0; a < 2; ++a, ++n) {
+        const int i = std::clamp(b.x + a, 0, f0.grid_.dims.x - 1), j = std::clamp(b.y + bb, 0, f0.grid_.dims.y - 1),
+                  k = std::clamp(b.z + c, 0, f0.grid_.dims.z - 1);
+        brick[n] = f0.brick_index(glm::ivec3(i / kBrick, j / kBrick, k / kBrick));
+        offset[n] = size_t(((k % kBrick) * kBrick + (j % kBrick)) * kBrick + (i % kBrick));
+        weight[n] = (a ? t.x : 1 - t.x) * (bb ? t.y : 1 - t.y) * (c ? t.z : 1 - t.z);
+      }
+  for (int m = 0; m < count; ++m) {
+    const BrickField& f = *fields[m];
+    double v = 0;
+    for (int n = 0; n < 8; ++n) {
+      const int32_t s = f.slot_[brick[n]];
+      v += weight[n] * (s < 0 ? f.constant_[brick[n]] : f.data_[size_t(s) * kBrickVoxels + offset[n]]);
+    }
+    values[m] = v;
+  }
+}
+
 double BrickField::sample_linear(const glm::dvec3& p) const {
   const glm::dvec3 f = glm::floor(p);
   const glm::ivec3 b(f);

@@ -51,6 +51,9 @@ class BrickField {
   // Newton projections evaluate two to four fields at every step).
   static void sample_cubic_many(const BrickField* const* fields, int count, const glm::dvec3& ijk, double* values,
                                 glm::dvec3* gradients);
+  // sample_linear of several fields on the same grid at one point (the same values), the corners' bricks and offsets
+  // found once for all of them (IndicatorFields::material_at: every field at every tet of the Delaunay mesh).
+  static void sample_linear_many(const BrickField* const* fields, int count, const glm::dvec3& ijk, double* values);
 
  private:
   size_t brick_index(const glm::ivec3& b) const {

@@ -356,12 +356,18 @@ BrickField add_junction_offset(uint16_t label, BrickField& field, double band, f
 int IndicatorFields::material_at(const glm::dvec3& ijk) const {
   int best = 0;
   double best_value = -std::numeric_limits<double>::infinity();
-  for (size_t m = 0; m < fields.size(); ++m) {
-    const double v = fields[m].sample_linear(ijk);
-    if (v > best_value) {
-      best_value = v;
-      best = int(m);
-    }
+  constexpr size_t kBatch = 16;  // fields sampled together
+  const BrickField* batch[kBatch];
+  double values[kBatch];
+  for (size_t first = 0; first < fields.size(); first += kBatch) {
+    const size_t count = std::min(kBatch, fields.size() - first);
+    for (size_t k = 0; k < count; ++k) batch[k] = &fields[first + k];
+    BrickField::sample_linear_many(batch, int(count), ijk, values);
+    for (size_t k = 0; k < count; ++k)
+      if (values[k] > best_value) {
+        best_value = values[k];
+        best = int(first + k);
+      }
   }
   return best;
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <limits>
+#include <set>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -54,22 +55,25 @@ std::vector<uint16_t> hull_materials(const fields::IndicatorFields& F, const Tet
   std::vector<uint16_t> out(adj.neighbour.size(), 0);
   const double h = F.grid.min_spacing();
   const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
-  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
-    if (adj.neighbour[tc] != Adjacency::kHull) continue;
-    const auto f = outward_face(T, tc);
-    const glm::dvec3 &a = T.points[f[0]], &b = T.points[f[1]], &c = T.points[f[2]];
-    const glm::dvec3 centroid = (a + b + c) / 3.0;
-    const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
-    // A surface sampled by this face's corners, with curvature radius no smaller than the face's circumradius rho,
-    // bulges at most rho beyond it: sampling half a voxel out, as before, landed inside a material wherever a
-    // large hull face cut under a curved surface, and the outside then changed material from face to face, which
-    // left the materials' boundaries open (a 40^3 wedge ball lost its tet mesh that way).
-    const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
-    const double area2 = glm::length(glm::cross(b - a, c - a));  // twice the area
-    const double rho = area2 > 0 ? la * lb * lc / (2.0 * area2) : std::max({la, lb, lc});
-    const double step = 0.5 * h + std::min(rho, 4.0 * h);
-    out[tc] = uint16_t(F.material_at(glm::clamp((centroid + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
-  }
+  const tbb::blocked_range<uint32_t> faces(0, uint32_t(adj.neighbour.size()), 1 << 14);
+  tbb::parallel_for(faces, [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t tc = r.begin(); tc < r.end(); ++tc) {
+      if (adj.neighbour[tc] != Adjacency::kHull) continue;
+      const auto f = outward_face(T, tc);
+      const glm::dvec3 &a = T.points[f[0]], &b = T.points[f[1]], &c = T.points[f[2]];
+      const glm::dvec3 centroid = (a + b + c) / 3.0;
+      const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+      // A surface sampled by this face's corners, with curvature radius no smaller than the face's circumradius rho,
+      // bulges at most rho beyond it: sampling half a voxel out, as before, landed inside a material wherever a
+      // large hull face cut under a curved surface, and the outside then changed material from face to face, which
+      // left the materials' boundaries open (a 40^3 wedge ball lost its tet mesh that way).
+      const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+      const double area2 = glm::length(glm::cross(b - a, c - a));  // twice the area
+      const double rho = area2 > 0 ? la * lb * lc / (2.0 * area2) : std::max({la, lb, lc});
+      const double step = 0.5 * h + std::min(rho, 4.0 * h);
+      out[tc] = uint16_t(F.material_at(glm::clamp((centroid + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
+    }
+  });
   return out;
 }
 
@@ -96,10 +100,35 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
     for (uint32_t c = 0; c < 4; ++c) n += face_is_wrong(T, t * 4 + c, m, other(t * 4 + c), vertex_materials);
     return n;
   };
+  // Each pass visits the tets in order and relabels one as soon as a better material is found, so a tet sees its
+  // lower-numbered neighbours' new labels. Only a tet with a wrong face can change, and one has a wrong face at its
+  // visit only if it had one when the pass began or a neighbour changed before it: those (found in parallel), and
+  // the higher-numbered neighbours of each change, are visited in order: the serial pass over every tet, exactly.
+  const uint32_t nt = uint32_t(T.tets.size());
   size_t changed = 0;
+  std::vector<uint8_t> has_wrong(nt);
   for (int pass = 0; pass < passes; ++pass) {
     size_t changes = 0;
-    for (uint32_t t = 0; t < T.tets.size(); ++t) {
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 1 << 14), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t t = r.begin(); t < r.end(); ++t) has_wrong[t] = uint8_t(cost(t, material[t]) > 0);
+    });
+    std::vector<uint32_t> start;
+    for (uint32_t t = 0; t < nt; ++t)
+      if (has_wrong[t]) start.push_back(t);
+    std::set<uint32_t> later;  // neighbours of changed tets, after the one being visited
+    size_t next = 0;
+    for (;;) {
+      uint32_t t;
+      const bool from_start = next < start.size() && (later.empty() || start[next] <= *later.begin());
+      if (from_start) {
+        t = start[next++];
+        if (!later.empty() && *later.begin() == t) later.erase(later.begin());
+      } else if (!later.empty()) {
+        t = *later.begin();
+        later.erase(later.begin());
+      } else {
+        break;
+      }
       const int now = cost(t, material[t]);
       if (now == 0) continue;
       int best = now;
@@ -119,6 +148,10 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
       if (best_m != material[t]) {
         material[t] = best_m;
         ++changes;
+        for (uint32_t c = 0; c < 4; ++c) {
+          const uint32_t nb = adj.neighbour[t * 4 + c];
+          if (nb != Adjacency::kHull && nb / 4 > t) later.insert(nb / 4);
+        }
       }
     }
     changed += changes;
@@ -129,12 +162,20 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
+  // Fixed chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
+  constexpr uint32_t kChunk = 1 << 16;
+  const uint32_t faces = uint32_t(adj.neighbour.size()), chunks = (faces + kChunk - 1) / kChunk;
+  std::vector<std::vector<uint32_t>> found(chunks);
+  tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t k) {
+    for (uint32_t tc = k * kChunk; tc < std::min(faces, (k + 1) * kChunk); ++tc) {
+      const uint32_t nb = adj.neighbour[tc];
+      if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
+      if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials))
+        found[k].push_back(tc);
+    }
+  });
   std::vector<uint32_t> out;
-  for (uint32_t tc = 0; tc < adj.neighbour.size(); ++tc) {
-    const uint32_t nb = adj.neighbour[tc];
-    if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
-    if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials)) out.push_back(tc);
-  }
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
   return out;
 }
 
