@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <numeric>
 #include <optional>
 
@@ -242,33 +241,48 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   begin("quality");
   std::vector<uint8_t> on_curve(kind.size());
   for (size_t v = 0; v < kind.size(); ++v) on_curve[v] = kind[v] != uint8_t(fields::FeatureKind::interface);
-  rep.surface = triangle_stats(I.vertices, I.triangles);
-  rep.crossing_triangles = crossing_triangles(I.vertices, I.triangles).size();
-  {
-    std::vector<std::array<uint32_t, 3>> at_junction, away;
-    for (const auto& tri : I.triangles)
-      (on_curve[tri[0]] || on_curve[tri[1]] || on_curve[tri[2]] ? at_junction : away).push_back(tri);
-    rep.junction_triangles = triangle_stats(I.vertices, at_junction);
-    rep.other_triangles = triangle_stats(I.vertices, away);
+  // The interfaces (material pairs, in order) and each triangle's: radius-ratio sums per interface and per side of
+  // the junctions (a triangle with a curve or point vertex) in one pass, every edge check in one sort.
+  std::vector<std::array<uint16_t, 2>> pairs(I.pair.begin(), I.pair.end());
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<uint32_t> pair_index(I.triangles.size()), sums_group(I.triangles.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, I.triangles.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const auto& tri = I.triangles[i];
+      pair_index[i] = uint32_t(std::lower_bound(pairs.begin(), pairs.end(), I.pair[i]) - pairs.begin());
+      sums_group[i] = 2 * pair_index[i] + uint32_t(on_curve[tri[0]] || on_curve[tri[1]] || on_curve[tri[2]]);
+    }
+  });
+  const std::vector<TriangleSums> sums = triangle_sums_by_group(I.vertices, I.triangles, sums_group, 2 * pairs.size());
+  TriangleSums all, at_junction, away;
+  for (size_t g = 0; g < pairs.size(); ++g) {
+    away += sums[2 * g];
+    at_junction += sums[2 * g + 1];
   }
-  std::map<std::array<uint16_t, 2>, std::vector<std::array<uint32_t, 3>>> by_pair;
-  for (size_t i = 0; i < I.triangles.size(); ++i) by_pair[I.pair[i]].push_back(I.triangles[i]);
-  for (const auto& [pair, tris] : by_pair) {
+  all += away;
+  all += at_junction;
+  rep.surface = all.stats();
+  rep.junction_triangles = at_junction.stats();
+  rep.other_triangles = away.stats();
+  rep.crossing_triangles = crossing_triangles(I.vertices, I.triangles).size();
+  const EdgeChecks edges = check_edges(I.triangles, pair_index, pairs, labels.size(), on_curve);
+  for (size_t g = 0; g < pairs.size(); ++g) {
     InterfaceReport ir;
-    ir.labels = {labels[pair[0]], labels[pair[1]]};
-    ir.quality = triangle_stats(I.vertices, tris);
-    ir.check = check_surface(tris, on_curve);
+    ir.labels = {labels[pairs[g][0]], labels[pairs[g][1]]};
+    TriangleSums both = sums[2 * g];
+    both += sums[2 * g + 1];
+    ir.quality = both.stats();
+    ir.check = edges.interfaces[g];
     rep.interfaces_manifold += ir.check.manifold();
     rep.interfaces.push_back(ir);
   }
   for (size_t m = 0; m < labels.size(); ++m) {
-    std::vector<std::array<uint32_t, 3>> boundary;
-    for (size_t i = 0; i < I.triangles.size(); ++i)
-      if (I.pair[i][0] == m || I.pair[i][1] == m) boundary.push_back(I.triangles[i]);
     MaterialReport mr;
     mr.label = labels[m];
-    mr.boundary_triangles = boundary.size();
-    mr.odd_edges = odd_edges(boundary);
+    for (size_t g = 0; g < pairs.size(); ++g)
+      if (pairs[g][0] == m || pairs[g][1] == m) mr.boundary_triangles += sums[2 * g].triangles + sums[2 * g + 1].triangles;
+    mr.odd_edges = edges.odd_edges[m];
     rep.materials_closed += mr.odd_edges == 0;
     rep.materials.push_back(mr);
   }

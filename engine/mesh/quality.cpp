@@ -80,21 +80,52 @@ double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dv
   return glm::length(x) / shortest;
 }
 
-TriangleStats triangle_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 3>>& T) {
+TriangleSums& TriangleSums::operator+=(const TriangleSums& o) {
+  triangles += o.triangles;
+  below_half += o.below_half;
+  sum += o.sum;
+  min = std::min(min, o.min);
+  return *this;
+}
+
+TriangleStats TriangleSums::stats() const {
   TriangleStats s;
-  s.triangles = T.size();
-  if (T.empty()) return s;
-  s.min_radius_ratio = 1;
-  size_t below = 0;
-  for (const auto& t : T) {
-    const double q = radius_ratio(V[t[0]], V[t[1]], V[t[2]]);
-    s.mean_radius_ratio += q;
-    s.min_radius_ratio = std::min(s.min_radius_ratio, q);
-    below += q < 0.5;
-  }
-  s.mean_radius_ratio /= double(T.size());
-  s.share_below_half = double(below) / double(T.size());
+  s.triangles = triangles;
+  if (triangles == 0) return s;
+  s.mean_radius_ratio = sum / double(triangles);
+  s.min_radius_ratio = min;
+  s.share_below_half = double(below_half) / double(triangles);
   return s;
+}
+
+std::vector<TriangleSums> triangle_sums_by_group(const std::vector<glm::dvec3>& V,
+                                                 const std::vector<std::array<uint32_t, 3>>& T,
+                                                 const std::vector<uint32_t>& group, size_t groups) {
+  if (!group.empty() && group.size() != T.size())
+    throw std::invalid_argument("triangle_sums_by_group: one group per triangle");
+  constexpr size_t kChunk = 1 << 15;
+  const size_t chunks = (T.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<TriangleSums>> part(chunks);
+  tbb::parallel_for(size_t(0), chunks, [&](size_t k) {
+    std::vector<TriangleSums>& mine = part[k];
+    mine.resize(groups);
+    for (size_t t = k * kChunk; t < std::min(T.size(), (k + 1) * kChunk); ++t) {
+      const double q = radius_ratio(V[T[t][0]], V[T[t][1]], V[T[t][2]]);
+      TriangleSums& g = mine[group.empty() ? 0 : group[t]];
+      ++g.triangles;
+      g.sum += q;
+      g.min = std::min(g.min, q);
+      g.below_half += q < 0.5;
+    }
+  });
+  std::vector<TriangleSums> out(groups);
+  for (const auto& p : part)
+    for (size_t g = 0; g < groups; ++g) out[g] += p[g];
+  return out;
+}
+
+TriangleStats triangle_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 3>>& T) {
+  return triangle_sums_by_group(V, T, {}, 1)[0].stats();
 }
 
 namespace {
@@ -133,6 +164,53 @@ SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& T, const 
     }
   }
   return c;
+}
+
+EdgeChecks check_edges(const std::vector<std::array<uint32_t, 3>>& T, const std::vector<uint32_t>& group,
+                       const std::vector<std::array<uint16_t, 2>>& pair_of, size_t materials,
+                       const std::vector<uint8_t>& on_curve) {
+  if (group.size() != T.size()) throw std::invalid_argument("check_edges: one group per triangle");
+  EdgeChecks out;
+  out.interfaces.resize(pair_of.size());
+  out.odd_edges.assign(materials, 0);
+  // (edge, group) for every triangle edge, sorted: an edge's uses by each interface are then runs within its run.
+  std::vector<std::pair<uint64_t, uint32_t>> entries(T.size() * 3);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, T.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t < r.end(); ++t)
+      for (int e = 0; e < 3; ++e) entries[t * 3 + size_t(e)] = {edge_key(T[t][size_t(e)], T[t][size_t((e + 1) % 3)]), group[t]};
+  });
+  tbb::parallel_sort(entries.begin(), entries.end());
+  std::vector<int> uses_of(materials, 0);
+  std::vector<size_t> touched;
+  for (size_t i = 0; i < entries.size();) {
+    const uint64_t edge = entries[i].first;
+    const uint32_t a = uint32_t(edge >> 32), b = uint32_t(edge);
+    size_t j = i;
+    for (; j < entries.size() && entries[j].first == edge;) {
+      const uint32_t g = entries[j].second;
+      size_t k = j;
+      while (k < entries.size() && entries[k].first == edge && entries[k].second == g) ++k;
+      const size_t uses = k - j;
+      SurfaceCheck& c = out.interfaces[g];
+      if (uses > 2) ++c.nonmanifold_edges;
+      if (uses == 1) {
+        ++c.boundary_edges;
+        if (!(on_curve[a] && on_curve[b])) ++c.open_edges;
+      }
+      for (uint16_t m : pair_of[g]) {
+        if (uses_of[m] == 0) touched.push_back(m);
+        uses_of[m] += int(uses);
+      }
+      j = k;
+    }
+    for (size_t m : touched) {
+      out.odd_edges[m] += size_t(uses_of[m] % 2);
+      uses_of[m] = 0;
+    }
+    touched.clear();
+    i = j;
+  }
+  return out;
 }
 
 std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t, 3>>& T,

@@ -34,6 +34,18 @@ struct TriangleStats {
   double mean_radius_ratio = 0, min_radius_ratio = 0, share_below_half = 0;
 };
 TriangleStats triangle_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 3>>& triangles);
+// The radius ratios' sums of groups of triangles, which add up to the sums of their union (sum() of two groups).
+struct TriangleSums {
+  size_t triangles = 0, below_half = 0;
+  double sum = 0, min = 1;
+  TriangleSums& operator+=(const TriangleSums& o);
+  TriangleStats stats() const;
+};
+// Per group (group[t] < groups; every triangle in group 0 where `group` is empty), on every core in fixed chunks
+// joined in order: the same sums on any thread count. triangle_stats is its one group.
+std::vector<TriangleSums> triangle_sums_by_group(const std::vector<glm::dvec3>& vertices,
+                                                 const std::vector<std::array<uint32_t, 3>>& triangles,
+                                                 const std::vector<uint32_t>& group, size_t groups);
 
 struct SurfaceCheck {
   size_t nonmanifold_edges = 0;  // in more than two triangles
@@ -43,6 +55,16 @@ struct SurfaceCheck {
 };
 // vertex_on_curve[v]: the vertex is a triple-curve or quadruple-point particle.
 SurfaceCheck check_surface(const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint8_t>& vertex_on_curve);
+// check_surface of every interface and odd_edges of every material's boundary from one sort of all the edges:
+// interface g is the triangles with group[t] == g, separating materials pair_of[g]; material m's boundary is the
+// triangles of the interfaces that have m.
+struct EdgeChecks {
+  std::vector<SurfaceCheck> interfaces;  // per group
+  std::vector<size_t> odd_edges;         // per material
+};
+EdgeChecks check_edges(const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint32_t>& group,
+                       const std::vector<std::array<uint16_t, 2>>& pair_of, size_t materials,
+                       const std::vector<uint8_t>& vertex_on_curve);
 // Triple-curve edges of a set of interface meshes: edges in triangles of three material pairs or more that
 // together span exactly three materials (pair[t] = the two materials triangle t separates). Works on any mesher's
 // output, ours or a peer's, since it needs no vertex tags.

@@ -1,10 +1,13 @@
 // Triple-curve edges of interface meshes (mesh::triple_curve_edges) and the analytic curve distance
-// (io::distance_to_triple_curve): the measures behind the junction error of the tests and benchmarks.
+// (io::distance_to_triple_curve): the measures behind the junction error of the tests and benchmarks; the crossing
+// test; the grouped checks and sums of the quality report.
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <limits>
 #include <random>
+
+#include <tbb/global_control.h>
 
 #include "io/synth_volumes.h"
 #include "mesh/quality.h"
@@ -114,4 +117,64 @@ TEST_CASE("crossing_triangles: the grid finds every crossing pair that testing a
     CHECK(mesh::crossing_triangles(V, T) == all);
     CHECK(mesh::crossing_triangles(V, T, &only) == flagged);
   }
+}
+
+TEST_CASE("check_edges and triangle_sums_by_group: each interface's and material's checks and sums from one pass") {
+  // A soup of random triangles over few vertices, in random interfaces of 5 materials: edges used once, twice and
+  // more often, within one interface and across several; enough triangles for several of the sums' chunks.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<glm::dvec3> V(600);
+  for (auto& p : V) p = {u(rng), u(rng), u(rng)};
+  std::vector<uint8_t> on_curve(V.size());
+  for (auto& c : on_curve) c = uint8_t(rng() % 3 == 0);
+  const std::vector<std::array<uint16_t, 2>> pairs = {{0, 1}, {0, 2}, {1, 2}, {1, 4}, {2, 3}, {3, 4}};
+  std::vector<std::array<uint32_t, 3>> T;
+  std::vector<uint32_t> group;
+  while (T.size() < 100000) {
+    const uint32_t a = rng() % 600, b = rng() % 600, c = rng() % 600;
+    if (a == b || b == c || a == c) continue;
+    T.push_back({a, b, c});
+    group.push_back(uint32_t(rng() % pairs.size()));
+  }
+  const auto checks = mesh::check_edges(T, group, pairs, 5, on_curve);
+  std::vector<mesh::TriangleSums> sums;
+  {
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 3);
+    sums = mesh::triangle_sums_by_group(V, T, group, pairs.size());
+  }
+  const auto one_thread = [&] {
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+    return mesh::triangle_sums_by_group(V, T, group, pairs.size());
+  }();
+  size_t nonmanifold = 0, open = 0;
+  for (size_t g = 0; g < pairs.size(); ++g) {
+    std::vector<std::array<uint32_t, 3>> mine;
+    for (size_t t = 0; t < T.size(); ++t)
+      if (group[t] == g) mine.push_back(T[t]);
+    const auto expected = mesh::check_surface(mine, on_curve);
+    CHECK(checks.interfaces[g].nonmanifold_edges == expected.nonmanifold_edges);
+    CHECK(checks.interfaces[g].boundary_edges == expected.boundary_edges);
+    CHECK(checks.interfaces[g].open_edges == expected.open_edges);
+    nonmanifold += expected.nonmanifold_edges;
+    open += expected.open_edges;
+    const auto stats = mesh::triangle_stats(V, mine);
+    const auto got = sums[g].stats();
+    CHECK(got.triangles == mine.size());
+    CHECK(got.mean_radius_ratio == doctest::Approx(stats.mean_radius_ratio).epsilon(1e-12));
+    CHECK(got.min_radius_ratio == stats.min_radius_ratio);
+    CHECK(got.share_below_half == stats.share_below_half);
+    CHECK(one_thread[g].sum == sums[g].sum);  // fixed chunks: the same sums on any thread count
+  }
+  CHECK(nonmanifold > 0);
+  CHECK(open > 0);
+  size_t odd = 0;
+  for (uint16_t m = 0; m < 5; ++m) {
+    std::vector<std::array<uint32_t, 3>> boundary;
+    for (size_t t = 0; t < T.size(); ++t)
+      if (pairs[group[t]][0] == m || pairs[group[t]][1] == m) boundary.push_back(T[t]);
+    CHECK(checks.odd_edges[m] == mesh::odd_edges(boundary));
+    odd += checks.odd_edges[m];
+  }
+  CHECK(odd > 0);
 }
