@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "ref/cp_lookup.h"
 
@@ -208,15 +209,19 @@ template <class Position>
 Tiles tile_by_parity(const std::vector<uint32_t>& items, double tile, Position&& position) {
   struct Keyed {
     uint64_t key;  // parity in the top 3 bits, then the tile
+    uint32_t place;  // in `items`: ties keep the given order (a stable sort, on every core)
     uint32_t item;
   };
   std::vector<Keyed> order(items.size());
-  for (size_t k = 0; k < items.size(); ++k) {
-    const glm::ivec3 t(glm::floor(glm::dvec3(position(items[k])) / tile));
-    const uint64_t parity = uint64_t(t.x & 1) | uint64_t(t.y & 1) << 1 | uint64_t(t.z & 1) << 2;
-    order[k] = {parity << 61 | (fields::cell_key(t) & ((uint64_t(1) << 61) - 1)), items[k]};
-  }
-  std::stable_sort(order.begin(), order.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, items.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k < r.end(); ++k) {
+      const glm::ivec3 t(glm::floor(glm::dvec3(position(items[k])) / tile));
+      const uint64_t parity = uint64_t(t.x & 1) | uint64_t(t.y & 1) << 1 | uint64_t(t.z & 1) << 2;
+      order[k] = {parity << 61 | (fields::cell_key(t) & ((uint64_t(1) << 61) - 1)), uint32_t(k), items[k]};
+    }
+  });
+  tbb::parallel_sort(order.begin(), order.end(),
+                     [](const Keyed& a, const Keyed& b) { return a.key != b.key ? a.key < b.key : a.place < b.place; });
   Tiles out;
   out.item.resize(order.size());
   std::vector<uint64_t> tile_parity;
