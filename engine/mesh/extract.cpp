@@ -163,11 +163,11 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
   // Fixed chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
-  constexpr uint32_t kChunk = 1 << 16;
-  const uint32_t faces = uint32_t(adj.neighbour.size()), chunks = (faces + kChunk - 1) / kChunk;
+  constexpr size_t kChunk = 1 << 16;
+  const size_t faces = adj.neighbour.size(), chunks = (faces + kChunk - 1) / kChunk;
   std::vector<std::vector<uint32_t>> found(chunks);
-  tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t k) {
-    for (uint32_t tc = k * kChunk; tc < std::min(faces, (k + 1) * kChunk); ++tc) {
+  tbb::parallel_for(size_t(0), chunks, [&](size_t k) {
+    for (uint32_t tc = uint32_t(k * kChunk); tc < std::min(faces, (k + 1) * kChunk); ++tc) {
       const uint32_t nb = adj.neighbour[tc];
       if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
       if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials))

@@ -170,6 +170,12 @@ EdgeChecks check_edges(const std::vector<std::array<uint32_t, 3>>& T, const std:
                        const std::vector<std::array<uint16_t, 2>>& pair_of, size_t materials,
                        const std::vector<uint8_t>& on_curve) {
   if (group.size() != T.size()) throw std::invalid_argument("check_edges: one group per triangle");
+  for (const auto& p : pair_of)
+    if (p[0] >= materials || p[1] >= materials || p[0] == p[1])
+      throw std::invalid_argument("check_edges: an interface's materials must be two distinct ones below " +
+                                  std::to_string(materials));
+  if (std::any_of(group.begin(), group.end(), [&](uint32_t g) { return g >= pair_of.size(); }))
+    throw std::invalid_argument("check_edges: a triangle's group is not an interface");
   EdgeChecks out;
   out.interfaces.resize(pair_of.size());
   out.odd_edges.assign(materials, 0);
@@ -379,14 +385,18 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
       for (int y = ca.y; y <= cb.y; ++y)
         for (int x = ca.x; x <= cb.x; ++x) visit(cell_index({x, y, z}));
   };
-  // Every triangle's box, once, rounded outward to float: the boxes put the triangles in cells and filter the pairs,
-  // and a box a little larger than the exact one only lets through a few more pairs, which the exact test rejects.
+  // Every triangle's box, once, exact (double) and rounded outward to float: the float boxes put the triangles in
+  // cells and filter the pairs cheaply; a pair they let through must also pass the exact boxes' test, so the pairs
+  // tested are those whose exact boxes meet (triangles_cross is plain floating point, and near-touching triangles
+  // whose exact boxes do not meet could otherwise be reported).
   using Box = std::array<glm::vec3, 2>;
   HostArray<Box> boxes(nt);
+  HostArray<std::array<glm::dvec3, 2>> exact(nt);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nt, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
     for (uint32_t t = r.begin(); t < r.end(); ++t) {
       glm::dvec3 a, b;
       box(T[t], a, b);
+      exact[t] = {a, b};
       for (int k = 0; k < 3; ++k) {
         float down = float(a[k]), up = float(b[k]);
         if (double(down) > a[k]) down = std::nextafter(down, -std::numeric_limits<float>::infinity());
@@ -423,6 +433,8 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
           const glm::vec3 &ulo = cell_boxes[j][0], &uhi = cell_boxes[j][1];
           if (glm::any(glm::lessThan(uhi, a)) || glm::any(glm::greaterThan(ulo, b))) continue;
           if (cell_index(cell_of(glm::dvec3(glm::max(a, ulo)))) != c) continue;
+          const auto &et = exact[t], &eu = exact[u];
+          if (glm::any(glm::lessThan(eu[1], et[0])) || glm::any(glm::greaterThan(eu[0], et[1]))) continue;
           if (triangles_cross(V, T[t], T[u])) mine.push_back({std::min(t, u), std::max(t, u)});
         }
       }

@@ -34,7 +34,8 @@ struct TriangleStats {
   double mean_radius_ratio = 0, min_radius_ratio = 0, share_below_half = 0;
 };
 TriangleStats triangle_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 3>>& triangles);
-// The radius ratios' sums of groups of triangles, which add up to the sums of their union (sum() of two groups).
+// The radius ratios' sums of groups of triangles; += of two groups gives their union's (to rounding: the sums are
+// added in another order than one loop over the union would).
 struct TriangleSums {
   size_t triangles = 0, below_half = 0;
   double sum = 0, min = 1;

@@ -76,6 +76,19 @@ TEST_CASE("crossing_triangles: triangles through each other, and shared or touch
   CHECK(mesh::crossing_triangles(W, U) == std::vector<std::array<uint32_t, 2>>{{0, 1}});
 }
 
+TEST_CASE("crossing_triangles: triangles whose boxes do not meet never cross, whatever the rounding") {
+  // s's largest x lies below t's smallest x (by 1e-16), but the boxes rounded to float meet, and the plain
+  // floating-point crossing test says these two cross: the exact boxes must keep the pair out (a review found it).
+  const std::vector<glm::dvec3> V = {{0.4438700941828696, 0.12005864862559806, 0.3533600268722884},
+                                     {0.4438700941828696, 0.26852209728828547, 0.34555410487201826},
+                                     {1.0266755132681227, 0.88036479385482891, 0.4394456971041521},
+                                     {-0.59117667019893883, -0.18923964791685896, 0.12230441839452721},
+                                     {0.44387009418286938, 0.1789010493665226, 0.35026620684702492},
+                                     {-0.39784040919553332, 0.66474699674961824, 0.37153133277577371}};
+  REQUIRE(V[4].x < V[0].x);
+  CHECK(mesh::crossing_triangles(V, {{0, 1, 2}, {3, 4, 5}}).empty());
+}
+
 TEST_CASE("crossing_triangles: the grid finds every crossing pair that testing all pairs finds, dense and sparse") {
   // Random small triangles in a cluster 7 units wide, where the grid's cells (twice the median edge) are a few
   // units wide and triangles span several; then with a second cluster 1000 units away, a bounding box so sparse that
