@@ -162,21 +162,17 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
-  // Fixed chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
+  // Chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
   constexpr size_t kChunk = 1 << 16;
-  const size_t faces = adj.neighbour.size(), chunks = (faces + kChunk - 1) / kChunk;
-  std::vector<std::vector<uint32_t>> found(chunks);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t k) {
-    for (uint32_t tc = uint32_t(k * kChunk); tc < std::min(faces, (k + 1) * kChunk); ++tc) {
+  const size_t faces = adj.neighbour.size();
+  return collect_in_order<uint32_t>(int((faces + kChunk - 1) / kChunk), [&](int k, auto& out) {
+    for (uint32_t tc = uint32_t(size_t(k) * kChunk); tc < std::min(faces, (size_t(k) + 1) * kChunk); ++tc) {
       const uint32_t nb = adj.neighbour[tc];
       if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
       if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials))
-        found[k].push_back(tc);
+        out.push_back(tc);
     }
   });
-  std::vector<uint32_t> out;
-  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
-  return out;
 }
 
 InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,

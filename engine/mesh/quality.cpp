@@ -103,25 +103,24 @@ std::vector<TriangleSums> triangle_sums_by_group(const std::vector<glm::dvec3>& 
                                                  const std::vector<uint32_t>& group, size_t groups) {
   if (!group.empty() && group.size() != T.size())
     throw std::invalid_argument("triangle_sums_by_group: one group per triangle");
-  constexpr size_t kChunk = 1 << 15;
-  const size_t chunks = (T.size() + kChunk - 1) / kChunk;
-  std::vector<std::vector<TriangleSums>> part(chunks);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t k) {
-    std::vector<TriangleSums>& mine = part[k];
-    mine.resize(groups);
-    for (size_t t = k * kChunk; t < std::min(T.size(), (k + 1) * kChunk); ++t) {
-      const double q = radius_ratio(V[T[t][0]], V[T[t][1]], V[T[t][2]]);
-      TriangleSums& g = mine[group.empty() ? 0 : group[t]];
-      ++g.triangles;
-      g.sum += q;
-      g.min = std::min(g.min, q);
-      g.below_half += q < 0.5;
-    }
-  });
-  std::vector<TriangleSums> out(groups);
-  for (const auto& p : part)
-    for (size_t g = 0; g < groups; ++g) out[g] += p[g];
-  return out;
+  // Fixed chunks joined in order (as tet_stats_by_group), so that the sums are the same on any thread count.
+  return tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<size_t>(0, T.size(), 16384), std::vector<TriangleSums>(groups),
+      [&](const tbb::blocked_range<size_t>& r, std::vector<TriangleSums> acc) {
+        for (size_t t = r.begin(); t != r.end(); ++t) {
+          const double q = radius_ratio(V[T[t][0]], V[T[t][1]], V[T[t][2]]);
+          TriangleSums& g = acc[group.empty() ? 0 : group[t]];
+          ++g.triangles;
+          g.sum += q;
+          g.min = std::min(g.min, q);
+          g.below_half += q < 0.5;
+        }
+        return acc;
+      },
+      [](std::vector<TriangleSums> a, const std::vector<TriangleSums>& b) {
+        for (size_t g = 0; g < a.size(); ++g) a[g] += b[g];
+        return a;
+      });
 }
 
 TriangleStats triangle_stats(const std::vector<glm::dvec3>& V, const std::vector<std::array<uint32_t, 3>>& T) {
