@@ -8,16 +8,20 @@
 // particles all interact with the walker (the AND of their feature masks) counts as its particles lumped at their
 // centre of mass with the node's smallest h.
 // Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1-4 node moments samplerBuffer (box min + min h, box max,
-//           centre + count) and usamplerBuffer (AND mask); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h); 7 features uint[n]; 8 feature_masks uvec2[]; 9 result vec4[n]
-//           (gradient of E_i wrt p_i in xyz, E_i in w); 10 counts uint[n] (pairs evaluated; bit 31 set when the work
-//           budget ran out); 11 visits uint[n] (nodes visited).
+//           centre + count) and usamplerBuffer (AND mask); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h);
+//           7 masks usamplerBuffer (per particle: its feature's material mask in xy); 8 result vec4[n] (gradient of
+//           E_i wrt p_i in xyz, E_i in w); 9 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran
+//           out); 10 visits uint[n] (nodes visited).
+// The masks are per particle, not per feature (features[j], then feature_masks[that]), so the leaf scans read each
+// candidate's mask as one texel gathered for all lanes: on lavapipe (128^3 wedge ball, 13 k particles, five runs
+// alternating) a walk took 12.8-17.9 ms instead of 17.3-20.5, a list walk 19.2-23.2 instead of 24.8-30.3 (issue 9).
 // Compiled three times: tree_walk (exact; theta unused), tree_walk_bh (-DBARNES_HUT, theta > 0): on lavapipe a branch
 // on a push constant still runs its body under a mask, and the lumping test cost the exact walk 5-10%; and
 // tree_walk_lists (-DNEIGHBOUR_LIST, octree::TreeWalk::record_lists): instead of the energy, each particle's Verlet
 // neighbour list, the particles j with (j's feature bounds i's) and |p_i - p_j| < SUPPORT min(h_i, h_j) (1 + skin)
 // (the pairs' support widened by the skin; the walk prunes by SUPPORT h_i (1 + skin)), in walk order, at most
-// `capacity` stored from lists[i * capacity]; then binding 9 is the lists, 10 their full lengths (bit 31: budget),
-// and 12 a uint that gets the longest length (atomicMax), so the caller can grow the capacity.
+// `capacity` stored from lists[i * capacity]; then binding 8 is the lists, 9 their full lengths (bit 31: budget),
+// and 11 a uint that gets the longest length (atomicMax), so the caller can grow the capacity.
 // Push: walkers (<= n), theta, skin, capacity. Dispatch: walkers threads in Morton order (thread k handles particle
 // order[k]), 64 per workgroup.
 // Loops: one shared budget of WORK_BUDGET iterations (node visits + pairs), far below lavapipe's 65k limit; running
@@ -36,16 +40,15 @@ layout(binding = 3) uniform samplerBuffer m_com;
 layout(binding = 4) uniform usamplerBuffer m_mask;  // the mask's bits, read as integers
 layout(std430, binding = 5) readonly buffer Order { uint order[]; };
 layout(binding = 6) uniform samplerBuffer particles;
-layout(std430, binding = 7) readonly buffer Features { uint features[]; };
-layout(std430, binding = 8) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
+layout(binding = 7) uniform usamplerBuffer masks;
 #ifdef NEIGHBOUR_LIST
-layout(std430, binding = 9) writeonly buffer Lists { uint lists[]; };
-layout(std430, binding = 12) buffer Longest { uint longest[]; };
+layout(std430, binding = 8) writeonly buffer Lists { uint lists[]; };
+layout(std430, binding = 11) buffer Longest { uint longest[]; };
 #else
-layout(std430, binding = 9) writeonly buffer Result { vec4 result[]; };
+layout(std430, binding = 8) writeonly buffer Result { vec4 result[]; };
 #endif
-layout(std430, binding = 10) writeonly buffer Counts { uint counts[]; };
-layout(std430, binding = 11) writeonly buffer Visits { uint visits[]; };
+layout(std430, binding = 9) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 10) writeonly buffer Visits { uint visits[]; };
 layout(push_constant) uniform Push { uint walkers; float theta; float skin; uint capacity; } pc;
 
 const uint WORK_BUDGET = 60000;
@@ -58,7 +61,7 @@ void main() {
   const vec4 pi4 = texelFetch(particles, int(i));
   const vec3 p = pi4.xyz;
   const float hi_ = pi4.w;
-  const uvec2 mask = feature_masks[features[i]];
+  const uvec2 mask = texelFetch(masks, int(i)).xy;
 #ifdef NEIGHBOUR_LIST
   const float cutoff = SUPPORT * hi_ * (1.0 + pc.skin);
   const uint list_start = i * pc.capacity;
@@ -107,7 +110,7 @@ void main() {
         ++work;
         const uint j = order[q];
         if (j == i) continue;
-        const uvec2 mj = feature_masks[features[j]];
+        const uvec2 mj = texelFetch(masks, int(j)).xy;
         if ((mj & mask) != mask) continue;  // j's feature does not bound i's
         const vec4 pj = texelFetch(particles, int(j));
         const vec3 delta = p - pj.xyz;

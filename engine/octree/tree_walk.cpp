@@ -1,6 +1,7 @@
 #include "octree/tree_walk.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "cpmesh/shaders.h"
 
@@ -14,39 +15,49 @@ struct WalkPush {
 };
 }  // namespace
 
+std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
+                                       const std::vector<uint64_t>& feature_masks) {
+  std::vector<glm::uvec4> masks(features.size());
+  for (size_t i = 0; i < features.size(); ++i) {
+    if (features[i] >= feature_masks.size())
+      throw std::invalid_argument("particle masks: a feature index out of range");
+    const uint64_t m = feature_masks[features[i]];
+    masks[i] = glm::uvec4(uint32_t(m), uint32_t(m >> 32), 0u, 0u);
+  }
+  return masks;
+}
+
 TreeWalk::TreeWalk(gpu::Context& ctx)
     : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh), lists_(ctx, shaders::tree_walk_lists) {}
 
 void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
-                      const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-                      const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,
-                      const gpu::Buffer<uint32_t>& visits, uint32_t n,
+                      const gpu::Buffer<glm::uvec4>& masks, const gpu::Buffer<glm::vec4>& result,
+                      const gpu::Buffer<uint32_t>& counts, const gpu::Buffer<uint32_t>& visits, uint32_t n,
                       uint32_t walkers, float theta) const {
-  if (n > particles.size() || n > features.size() || n > result.size() || n > counts.size() || n > order.size() ||
+  if (n > particles.size() || n > masks.size() || n > result.size() || n > counts.size() || n > order.size() ||
       n > visits.size())
     throw gpu::Error("tree walk: n exceeds a buffer");
   walkers = std::min(walkers, n);
   seq.dispatch(theta > 0.0f ? barnes_hut_ : exact_,
-               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features,
-                feature_masks, result, counts, visits},
+               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, masks, result, counts,
+                visits},
                WalkPush{walkers, theta, 0.0f, 0}, walkers);
 }
 
 void TreeWalk::record_lists(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                             const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
-                            const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-                            const gpu::Buffer<uint32_t>& lists, const gpu::Buffer<uint32_t>& lengths,
-                            const gpu::Buffer<uint32_t>& visits, const gpu::Buffer<uint32_t>& longest, uint32_t n,
-                            float skin, uint32_t capacity) const {
-  if (n > particles.size() || n > features.size() || n > lengths.size() || n > order.size() || n > visits.size() ||
+                            const gpu::Buffer<glm::uvec4>& masks, const gpu::Buffer<uint32_t>& lists,
+                            const gpu::Buffer<uint32_t>& lengths, const gpu::Buffer<uint32_t>& visits,
+                            const gpu::Buffer<uint32_t>& longest, uint32_t n, float skin, uint32_t capacity) const {
+  if (n > particles.size() || n > masks.size() || n > lengths.size() || n > order.size() || n > visits.size() ||
       capacity == 0 || uint64_t(n) * capacity > lists.size() || uint64_t(n) * capacity > 0xffffffffull ||
       longest.size() < 1)
     throw gpu::Error("neighbour lists: n or the capacity exceeds a buffer");
   if (!(skin >= 0.0f)) throw gpu::Error("neighbour lists: the skin must be >= 0");
   seq.dispatch(lists_,
-               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, features,
-                feature_masks, lists, lengths, visits, longest},
+               {nodes, moments.lo, moments.hi, moments.com, moments.and_mask, order, particles, masks, lists, lengths,
+                visits, longest},
                WalkPush{n, 0.0f, skin, capacity}, n);
 }
 

@@ -1,23 +1,30 @@
 #pragma once
 // Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy),
 // and the same walk building Verlet neighbour lists (reference ref::neighbour_lists).
+#include <cstdint>
+#include <vector>
+
 #include <glm/glm.hpp>
 
 #include "octree/octree_build.h"
 
 namespace cpmesh::octree {
 
+// The walks' per-particle masks: particle i's feature's material set (feature_masks[features[i]], a 64-bit mask) in
+// x (low word) and y (high word), z and w 0. Throws for a feature index outside feature_masks.
+std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
+                                       const std::vector<uint64_t>& feature_masks);
+
 class TreeWalk {
  public:
   explicit TreeWalk(gpu::Context& ctx);
   // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out;
   // visits[i] = octree nodes visited.
-  // feature_masks: per feature, the set of its materials as a 64-bit mask.
+  // masks: per particle, its feature's set of materials (particle_masks).
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
-              const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-              const gpu::Buffer<glm::vec4>& result, const gpu::Buffer<uint32_t>& counts,
-              const gpu::Buffer<uint32_t>& visits, uint32_t n,
+              const gpu::Buffer<glm::uvec4>& masks, const gpu::Buffer<glm::vec4>& result,
+              const gpu::Buffer<uint32_t>& counts, const gpu::Buffer<uint32_t>& visits, uint32_t n,
               uint32_t walkers = ~0u,  // walk only the first `walkers` particles in Morton order
               float theta = 0.0f) const;  // 0: exact; > 0: lump far nodes (size / distance < theta) at their centre
 
@@ -28,10 +35,9 @@ class TreeWalk {
   // longest[0] = max(longest[0], every full count) (the caller zeroes it, and grows the capacity when it exceeds it).
   void record_lists(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                     const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
-                    const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-                    const gpu::Buffer<uint32_t>& lists, const gpu::Buffer<uint32_t>& lengths,
-                    const gpu::Buffer<uint32_t>& visits, const gpu::Buffer<uint32_t>& longest, uint32_t n, float skin,
-                    uint32_t capacity) const;
+                    const gpu::Buffer<glm::uvec4>& masks, const gpu::Buffer<uint32_t>& lists,
+                    const gpu::Buffer<uint32_t>& lengths, const gpu::Buffer<uint32_t>& visits,
+                    const gpu::Buffer<uint32_t>& longest, uint32_t n, float skin, uint32_t capacity) const;
 
   static constexpr uint32_t kBudgetExceeded = 0x80000000u;
 

@@ -74,6 +74,8 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       flags_(ctx, n_, "population flags"),
       feature_masks_(ctx, feature_masks(E), "feature masks"),
       keys_(ctx, n_, "morton keys"),
+      masks_(ctx, octree::particle_masks(features, feature_masks(E)), "particle masks"),
+      masks_spare_(ctx, n_, "particle masks (permuted)"),
       nodes_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size), "octree nodes"),
       level_info_(ctx, 22, "octree levels"),
       energy_(ctx, n_, "particle energy"),
@@ -102,11 +104,13 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
 void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
   if (rebuild) {
     sort_.record(seq, particles_, box_, keys_, order_, n_, max_level_);
-    permute_.record(seq, order_, particles_, features_, ids_, particles_spare_, features_spare_, ids_spare_, n_);
+    permute_.record(seq, order_, particles_, features_, ids_, masks_, particles_spare_, features_spare_, ids_spare_,
+                    masks_spare_, n_);
     seq.barrier();
     std::swap(particles_, particles_spare_);
     std::swap(features_, features_spare_);
     std::swap(ids_, ids_spare_);
+    std::swap(masks_, masks_spare_);
     ids_host_.clear();
     lists_valid_ = false;  // the slots moved
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
@@ -119,8 +123,8 @@ void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
 void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
   record_tree(seq, rebuild);
   last_step_listed_ = false;
-  walk_.record(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, walk_result_, counts_,
-               visits_, n_, ~0u, options_.theta);
+  walk_.record(seq, nodes_, node_moments_, order_, particles_, masks_, walk_result_, counts_, visits_, n_, ~0u,
+               options_.theta);
   seq.barrier();
 }
 
@@ -149,8 +153,8 @@ void ParticleSystem::build_lists() {
     // boxes keep the walk exact, and without a re-sort the particle slots, which the lists index, stay put.
     if (fresh_tree) record_tree(seq, rebuild_due());
     seq.barrier();
-    walk_.record_lists(seq, nodes_, node_moments_, order_, particles_, features_, feature_masks_, lists_,
-                       list_lengths_, visits_, longest_, n_, options_.neighbour_skin, list_capacity_);
+    walk_.record_lists(seq, nodes_, node_moments_, order_, particles_, masks_, lists_, list_lengths_, visits_,
+                       longest_, n_, options_.neighbour_skin, list_capacity_);
     seq.copy(particles_, anchors_, uint64_t(n_) * sizeof(glm::vec4)).barrier();
     seq.submit_and_wait();
     fresh_tree = false;

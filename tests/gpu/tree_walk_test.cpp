@@ -42,6 +42,7 @@ struct Tree {
         order(ctx, n, "order"),
         visits(ctx, n, "visits"),
         mb(ctx, masks, "feature masks"),
+        pm(ctx, octree::particle_masks(features, masks), "particle masks"),
         nodes(ctx, octree::OctreeBuild::node_capacity(n, kLeaf), "nodes") {
     octree::MortonSort sorter(ctx);
     octree::OctreeBuild build(ctx);
@@ -60,7 +61,7 @@ struct Tree {
   octree::NodeMoments m;
   gpu::Buffer<uint32_t> fb, order, visits;
   gpu::Buffer<uint64_t> mb;
-  gpu::Buffer<glm::uvec4> nodes;
+  gpu::Buffer<glm::uvec4> pm, nodes;  // the walks' per-particle masks; the octree
 };
 
 struct WalkResult {
@@ -76,7 +77,7 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
   gpu::Buffer<uint32_t> counts(ctx, t.n, "counts");
   gpu::Sequence seq(ctx);
   seq.fill(counts, 0).barrier();
-  tree_walk.record(seq, t.nodes, t.m, t.order, t.pb, t.fb, t.mb, result, counts, t.visits, t.n, walkers);
+  tree_walk.record(seq, t.nodes, t.m, t.order, t.pb, t.pm, result, counts, t.visits, t.n, walkers);
   seq.submit_and_wait();
   return {result.download(), counts.download()};
 }
@@ -110,6 +111,17 @@ TEST_CASE_FIXTURE(GpuFixture, "tree walk energies and gradients match brute forc
   CHECK(r.result[1].x < 0.0f);  // energy grows towards the curve particle: -gradient pushes the interface one away
 }
 
+TEST_CASE("the walks' per-particle masks are their features' masks in two words") {
+  const std::vector<uint64_t> masks = {0b11, (uint64_t(1) << 40) | 0b101};
+  const auto got = octree::particle_masks({1, 0, 1}, masks);
+  REQUIRE(got.size() == 3);
+  CHECK(got[0] == glm::uvec4(0b101u, 1u << 8, 0u, 0u));
+  CHECK(got[1] == glm::uvec4(0b11u, 0u, 0u, 0u));
+  CHECK(got[2] == got[0]);
+  CHECK(octree::particle_masks({}, masks).empty());
+  CHECK_THROWS_AS(octree::particle_masks({2}, masks), std::invalid_argument);
+}
+
 TEST_CASE_FIXTURE(GpuFixture, "a walk that would pass lavapipe's loop limit is cut by the budget and reported") {
   const uint32_t n = 70000, walkers = 64;  // all within each other's support: 70k pairs each without the budget
   std::mt19937 rng(1);
@@ -140,7 +152,7 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past thei
   auto list_walk = [&](uint32_t per_particle, gpu::Buffer<uint32_t>& lists) {
     gpu::Sequence seq(ctx);
     seq.fill(longest, 0).barrier();
-    tree_walk.record_lists(seq, t.nodes, t.m, t.order, t.pb, t.fb, t.mb, lists, lengths, t.visits, longest, n, skin,
+    tree_walk.record_lists(seq, t.nodes, t.m, t.order, t.pb, t.pm, lists, lengths, t.visits, longest, n, skin,
                            per_particle);
     seq.submit_and_wait();
     return longest.read(0);
