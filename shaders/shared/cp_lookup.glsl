@@ -47,6 +47,12 @@ int cp_find_tile(uint tile, uint feature) {
   return -1;
 }
 
+// The index of the first cell of `tile` on `feature` in cp_cells (its record x 64), or CP_EMPTY where it has none.
+uint cp_tile_base(ivec3 tile, ivec3 tile_dims, uint feature) {
+  const int record = cp_find_tile(uint((tile.z * tile_dims.y + tile.y) * tile_dims.x + tile.x), feature);
+  return record < 0 ? CP_EMPTY : uint(record) << (3 * CP_TILE_SHIFT);
+}
+
 float cp_weno4(float f0, float f1, float f2, float f3, float t) {  // ref::weno4
   const float p1 = f1 + 0.5 * (f2 - f0) * t + 0.5 * (f2 - 2.0 * f1 + f0) * t * t;
   const float p2 = f1 + 0.5 * (-f3 + 4.0 * f2 - 3.0 * f1) * t + 0.5 * (f3 - 2.0 * f2 + f1) * t * t;
@@ -87,9 +93,10 @@ vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
 // stencil lies outside the feature's band (the point left it), and then the point itself is returned.
 // The 4^3 stencil of fine points lies in at most 3^3 cells (sub >= 2; 4^3 for sub = 1), and those in at most 2^3
 // tiles: each tile is found once, then each stencil point reads its cell's block from its tile (a texel, gathered for
-// all lanes) rather than from a table of the cells' blocks filled first: lavapipe keeps such an array in memory, lane
-// by lane, and the advection kernel took 6.4-8.4 ms a dispatch with it against 4.6-6.3 without (128^3 wedge ball,
-// 13 k particles, one subcell; two subcells 9.3-11.1 against 8.0-9.7).
+// all lanes). No arrays indexed by a value known only at run time: lavapipe keeps such an array in memory, lane by
+// lane. A table of the cells' blocks filled first cost the advection kernel 6.4-8.4 ms a dispatch against 4.6-6.3
+// without (128^3 wedge ball, 13 k particles, one subcell; two subcells 9.3-11.1 against 8.0-9.7); the tiles' eight
+// bases as an array rather than the selects below, 5.6-6.5 against 4.0-4.6 (two subcells: 7.9-9.7 against 7.8-8.9).
 vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   valid = false;
   const vec3 u = local_pos / CP_SPACING * float(CP_SUB);
@@ -105,15 +112,18 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
   if (any(greaterThanEqual(c1, CP_DIMS))) return vec4(local_pos, 0.0);
   const ivec3 tile_dims = (CP_DIMS + (1 << CP_TILE_SHIFT) - 1) >> CP_TILE_SHIFT;
   const ivec3 t0 = c0 >> CP_TILE_SHIFT, t1 = c1 >> CP_TILE_SHIFT;
-  uint tile_base[8];
-  for (int z = 0; z <= t1.z - t0.z; ++z)
-    for (int y = 0; y <= t1.y - t0.y; ++y)
-      for (int x = 0; x <= t1.x - t0.x; ++x) {
-        const ivec3 tile = t0 + ivec3(x, y, z);
-        const int record = cp_find_tile(uint((tile.z * tile_dims.y + tile.y) * tile_dims.x + tile.x), feature);
-        if (record < 0) return vec4(local_pos, 0.0);
-        tile_base[(z * 2 + y) * 2 + x] = uint(record) << (3 * CP_TILE_SHIFT);
-      }
+  const ivec3 span = t1 - t0;  // 0 or 1 per axis
+  const uint b0 = cp_tile_base(t0, tile_dims, feature);
+  const uint b1 = span.x > 0 ? cp_tile_base(t0 + ivec3(1, 0, 0), tile_dims, feature) : 0u;
+  const uint b2 = span.y > 0 ? cp_tile_base(t0 + ivec3(0, 1, 0), tile_dims, feature) : 0u;
+  const uint b3 = span.x > 0 && span.y > 0 ? cp_tile_base(t0 + ivec3(1, 1, 0), tile_dims, feature) : 0u;
+  const uint b4 = span.z > 0 ? cp_tile_base(t0 + ivec3(0, 0, 1), tile_dims, feature) : 0u;
+  const uint b5 = span.x > 0 && span.z > 0 ? cp_tile_base(t0 + ivec3(1, 0, 1), tile_dims, feature) : 0u;
+  const uint b6 = span.y > 0 && span.z > 0 ? cp_tile_base(t0 + ivec3(0, 1, 1), tile_dims, feature) : 0u;
+  const uint b7 = all(greaterThan(span, ivec3(0))) ? cp_tile_base(t0 + ivec3(1), tile_dims, feature) : 0u;
+  if (b0 == CP_EMPTY || b1 == CP_EMPTY || b2 == CP_EMPTY || b3 == CP_EMPTY || b4 == CP_EMPTY || b5 == CP_EMPTY ||
+      b6 == CP_EMPTY || b7 == CP_EMPTY)
+    return vec4(local_pos, 0.0);
   bool complete = true;
   vec4 vy[4];
   for (int z = 0; z < 4; ++z) {
@@ -125,8 +135,9 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
         const ivec3 cell = f / CP_SUB;
         const ivec3 s = f - cell * CP_SUB;
         const ivec3 t = (cell >> CP_TILE_SHIFT) - t0, l = cell & ((1 << CP_TILE_SHIFT) - 1);
-        const uint index = tile_base[(t.z * 2 + t.y) * 2 + t.x] +
-                           uint((((l.z << CP_TILE_SHIFT) | l.y) << CP_TILE_SHIFT) | l.x);
+        const uint tile_base = t.z == 0 ? (t.y == 0 ? (t.x == 0 ? b0 : b1) : (t.x == 0 ? b2 : b3))
+                                        : (t.y == 0 ? (t.x == 0 ? b4 : b5) : (t.x == 0 ? b6 : b7));
+        const uint index = tile_base + uint((((l.z << CP_TILE_SHIFT) | l.y) << CP_TILE_SHIFT) | l.x);
         const uint block = texelFetch(cp_cells, int(index >> 2))[index & 3u];
         complete = complete && block != CP_EMPTY;
         v[x] = cp_fine_point(block == CP_EMPTY ? 0u : block, uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
