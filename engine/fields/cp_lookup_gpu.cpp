@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include <tbb/parallel_sort.h>
+
 #include "cpmesh/shaders.h"
 #include "gpu/describe.h"
 
@@ -37,8 +39,9 @@ EmbeddingTiles build_embedding_tiles(const ClosestPointEmbedding& E) {
     const glm::ivec3 cell = E.grid.voxel(size_t(E.keys[slot] >> 16));
     entries.push_back({tile_key(cell >> EmbeddingTiles::kShift, T.dims, feature), cell_in_tile(cell), E.blocks[slot]});
   }
-  // Records in key order, so the table does not depend on the hash table's slot order.
-  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+  // Records in key order, so the table does not depend on the hash table's slot order. (No two entries are equal:
+  // a cell holds one block per feature. So any sort gives this order.)
+  tbb::parallel_sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
     return a.key != b.key ? a.key < b.key : a.cell < b.cell;
   });
   std::vector<uint64_t> distinct;
