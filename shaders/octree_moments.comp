@@ -5,9 +5,10 @@
 // their particles, internal nodes from their (at most 8) children.
 // Run from level 21 up to the root.
 // Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1 level_info uvec2[22]; 2 order uint[n] (Morton order ->
-//           particle); 3 particles samplerBuffer (xyz position, w sizing h); 4-7 the moments, one vec4 per node in each: lo (box min, min h), hi (box max,
-//           0), com (centre, count), and_mask (AND mask low, high word as float bits, 0, 0) (four buffers so that each
-//           stays within maxStorageBufferRange for a million particles); 8 features uint[n]; 9 feature_masks uvec2[].
+//           particle); 3 particles samplerBuffer (xyz position, w sizing h); 4-7 the moments, one vec4 per node in
+//           each: lo (box min, min h), hi (box max, 0), com (centre, count), and_mask (AND mask low, high word as
+//           float bits, 0, 0) (four buffers so that each stays within maxStorageBufferRange for a million
+//           particles); 8 masks usamplerBuffer (per particle: its feature's material mask in xy).
 // Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
 // Loops: at most LEAF_LOOP particles (more only in a level-21 leaf, whose particles share one 63-bit key, i.e. one
 // position to 2^-21 of the box) or 8 children. Reference: ref::octree_moments.
@@ -23,8 +24,7 @@ layout(std430, binding = 4) buffer MomentsLo { vec4 m_lo[]; };
 layout(std430, binding = 5) buffer MomentsHi { vec4 m_hi[]; };
 layout(std430, binding = 6) buffer MomentsCom { vec4 m_com[]; };
 layout(std430, binding = 7) buffer MomentsMask { vec4 m_mask[]; };
-layout(std430, binding = 8) readonly buffer Features { uint features[]; };
-layout(std430, binding = 9) readonly buffer FeatureMasks { uvec2 feature_masks[]; };
+layout(binding = 8) uniform usamplerBuffer masks;
 layout(push_constant) uniform Push { uint level; } pc;
 
 const uint LEAF_LOOP = 4096;
@@ -44,7 +44,7 @@ void main() {
     const uint m = min(node.y, LEAF_LOOP);
     for (uint k = 0; k < m; ++k) {
       const uint particle = order[node.x + k];
-      and_mask &= feature_masks[features[particle]];
+      and_mask &= texelFetch(masks, int(particle)).xy;
       const vec4 p = texelFetch(particles, int(particle));
       lo = min(lo, p.xyz);
       hi = max(hi, p.xyz);

@@ -1,6 +1,7 @@
 #include "octree/octree_build.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "cpmesh/shaders.h"
 
@@ -40,20 +41,32 @@ void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, 
   }
 }
 
+std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
+                                       const std::vector<uint64_t>& feature_masks) {
+  std::vector<glm::uvec4> masks(features.size());
+  for (size_t i = 0; i < features.size(); ++i) {
+    if (features[i] >= feature_masks.size())
+      throw std::invalid_argument("particle masks: a feature index out of range");
+    const uint64_t m = feature_masks[features[i]];
+    masks[i] = glm::uvec4(uint32_t(m), uint32_t(m >> 32), 0u, 0u);
+  }
+  return masks;
+}
+
 OctreeMoments::OctreeMoments(gpu::Context& ctx) : kernel_(ctx, shaders::octree_moments) {}
 
 void OctreeMoments::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes,
                            const gpu::Buffer<glm::uvec2>& level_info, const gpu::Buffer<uint32_t>& order,
-                           const gpu::Buffer<glm::vec4>& particles, const gpu::Buffer<uint32_t>& features,
-                           const gpu::Buffer<uint64_t>& feature_masks, const NodeMoments& moments,
-                           uint32_t n, uint32_t max_level) const {
+                           const gpu::Buffer<glm::vec4>& particles, const gpu::Buffer<glm::uvec4>& masks,
+                           const NodeMoments& moments, uint32_t n, uint32_t max_level) const {
   if (moments.lo.size() < nodes.size()) throw gpu::Error("octree moments: the moment buffers need one entry per node");
+  if (n > masks.size() || n > particles.size() || n > order.size())
+    throw gpu::Error("octree moments: n exceeds a buffer");
   // A level has at most n nodes (disjoint particle ranges), and the root level one.
   for (int level = int(std::min<uint32_t>(max_level, 21)); level >= 0; --level) {
     const struct { uint32_t level; } push{uint32_t(level)};
     seq.dispatch(kernel_,
-                 {nodes, level_info, order, particles, moments.lo, moments.hi, moments.com, moments.and_mask, features,
-                  feature_masks},
+                 {nodes, level_info, order, particles, moments.lo, moments.hi, moments.com, moments.and_mask, masks},
                  push,
                  std::max<uint32_t>(n, 1))
         .barrier();

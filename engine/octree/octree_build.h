@@ -3,6 +3,9 @@
 // where the next level's prefix changes inside internal nodes (octree_split), compact those starts, record the level
 // (octree_level) and make the child nodes with their parents' links (octree_children). Every dispatch is sized to n
 // and reads the counts from GPU buffers, so a build needs no host readback. Reference: ref::build_octree.
+#include <cstdint>
+#include <vector>
+
 #include <glm/glm.hpp>
 
 #include "primitives/compact.h"
@@ -41,15 +44,21 @@ struct NodeMoments {
 
 // Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
 // one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
+// Per particle, its feature's material set (feature_masks[features[i]], a 64-bit mask) as x (low word) and y (high
+// word), z and w 0: what the moments and the walks (tree_walk.h) read of a particle's feature, one texel each.
+// Throws for a feature index outside feature_masks.
+std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
+                                       const std::vector<uint64_t>& feature_masks);
+
 class OctreeMoments {
  public:
   explicit OctreeMoments(gpu::Context& ctx);
   // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h;
-  // features / feature_masks: each particle's feature and each feature's material set (64-bit mask).
+  // masks: each particle's feature's material set (particle_masks).
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,
               const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,
-              const gpu::Buffer<uint32_t>& features, const gpu::Buffer<uint64_t>& feature_masks,
-              const NodeMoments& moments, uint32_t n, uint32_t max_level = 21) const;
+              const gpu::Buffer<glm::uvec4>& masks, const NodeMoments& moments, uint32_t n,
+              uint32_t max_level = 21) const;
 
  private:
   gpu::Kernel kernel_;

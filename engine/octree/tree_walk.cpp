@@ -1,7 +1,6 @@
 #include "octree/tree_walk.h"
 
 #include <algorithm>
-#include <stdexcept>
 
 #include "cpmesh/shaders.h"
 
@@ -14,18 +13,6 @@ struct WalkPush {
   uint32_t capacity;
 };
 }  // namespace
-
-std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
-                                       const std::vector<uint64_t>& feature_masks) {
-  std::vector<glm::uvec4> masks(features.size());
-  for (size_t i = 0; i < features.size(); ++i) {
-    if (features[i] >= feature_masks.size())
-      throw std::invalid_argument("particle masks: a feature index out of range");
-    const uint64_t m = feature_masks[features[i]];
-    masks[i] = glm::uvec4(uint32_t(m), uint32_t(m >> 32), 0u, 0u);
-  }
-  return masks;
-}
 
 TreeWalk::TreeWalk(gpu::Context& ctx)
     : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh), lists_(ctx, shaders::tree_walk_lists) {}

@@ -1,19 +1,11 @@
 #pragma once
 // Particle energies and gradients by the exact octree walk (shaders/tree_walk.comp; reference ref::particle_energy),
 // and the same walk building Verlet neighbour lists (reference ref::neighbour_lists).
-#include <cstdint>
-#include <vector>
-
 #include <glm/glm.hpp>
 
 #include "octree/octree_build.h"
 
 namespace cpmesh::octree {
-
-// The walks' per-particle masks: particle i's feature's material set (feature_masks[features[i]], a 64-bit mask) in
-// x (low word) and y (high word), z and w 0. Throws for a feature index outside feature_masks.
-std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
-                                       const std::vector<uint64_t>& feature_masks);
 
 class TreeWalk {
  public:

@@ -72,7 +72,6 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       visits_(ctx, n_, "walk visits"),
       lost_(ctx, 1, "lost particles", gpu::MemoryUse::readback),
       flags_(ctx, n_, "population flags"),
-      feature_masks_(ctx, feature_masks(E), "feature masks"),
       keys_(ctx, n_, "morton keys"),
       masks_(ctx, octree::particle_masks(features, feature_masks(E)), "particle masks"),
       masks_spare_(ctx, n_, "particle masks (permuted)"),
@@ -116,8 +115,7 @@ void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
     steps_since_build_ = 0;
   }
-  moments_.record(seq, nodes_, level_info_, order_, particles_, features_, feature_masks_, node_moments_, n_,
-                  max_level_);
+  moments_.record(seq, nodes_, level_info_, order_, particles_, masks_, node_moments_, n_, max_level_);
 }
 
 void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {

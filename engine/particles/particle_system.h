@@ -161,8 +161,8 @@ class ParticleSystem {
   gpu::Buffer<uint32_t> features_, features_spare_, ids_, ids_spare_;  // ids_: the caller's index of each slot
   mutable std::vector<uint32_t> ids_host_;  // ids_ as last read back; emptied when a rebuild reorders the slots
   gpu::Buffer<uint32_t> feature_kinds_, order_, counts_, visits_, lost_, flags_;
-  gpu::Buffer<uint64_t> feature_masks_, keys_;
-  gpu::Buffer<glm::uvec4> masks_, masks_spare_;  // per slot: its feature's material mask (the walks read it)
+  gpu::Buffer<uint64_t> keys_;
+  gpu::Buffer<glm::uvec4> masks_, masks_spare_;  // per slot: its feature's material mask (octree::particle_masks)
   gpu::Buffer<glm::uvec4> nodes_;
   gpu::Buffer<glm::uvec2> level_info_;
   gpu::Buffer<float> energy_, readback_;

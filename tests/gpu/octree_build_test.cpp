@@ -132,12 +132,11 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     std::vector<uint32_t> features(n);
     for (uint32_t i = 0; i < n; ++i) features[i] = i % 3;
     const std::vector<uint64_t> masks = {0b011, 0b111, 0b110};
-    gpu::Buffer<uint32_t> fb(ctx, features, "features");
-    gpu::Buffer<uint64_t> mb(ctx, masks, "feature masks");
+    gpu::Buffer<glm::uvec4> pm(ctx, octree::particle_masks(features, masks), "particle masks");
     gpu::Sequence seq(ctx);
     sorter.record(seq, pb, box, keys, order, n);
     build.record(seq, keys, n, leaf, nodes, info);
-    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
+    moments.record(seq, nodes, info, order, pb, pm, m, n);
     seq.submit_and_wait();
 
     const auto tree = ref::build_octree(keys.download(), leaf);

@@ -38,10 +38,8 @@ struct Tree {
       : n(uint32_t(particles.size())),
         pb(ctx, particles, "particles"),
         m(ctx, octree::OctreeBuild::node_capacity(n, kLeaf)),
-        fb(ctx, features, "features"),
         order(ctx, n, "order"),
         visits(ctx, n, "visits"),
-        mb(ctx, masks, "feature masks"),
         pm(ctx, octree::particle_masks(features, masks), "particle masks"),
         nodes(ctx, octree::OctreeBuild::node_capacity(n, kLeaf), "nodes") {
     octree::MortonSort sorter(ctx);
@@ -52,16 +50,15 @@ struct Tree {
     gpu::Sequence seq(ctx);
     sorter.record(seq, pb, octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(extent)), keys, order, n);
     build.record(seq, keys, n, kLeaf, nodes, info);
-    moments.record(seq, nodes, info, order, pb, fb, mb, m, n);
+    moments.record(seq, nodes, info, order, pb, pm, m, n);
     seq.submit_and_wait();
   }
   static constexpr uint32_t kLeaf = 16;
   uint32_t n;
   gpu::Buffer<glm::vec4> pb;
   octree::NodeMoments m;
-  gpu::Buffer<uint32_t> fb, order, visits;
-  gpu::Buffer<uint64_t> mb;
-  gpu::Buffer<glm::uvec4> pm, nodes;  // the walks' per-particle masks; the octree
+  gpu::Buffer<uint32_t> order, visits;
+  gpu::Buffer<glm::uvec4> pm, nodes;  // per-particle masks (the moments' and the walks'); the octree
 };
 
 struct WalkResult {
