@@ -181,27 +181,27 @@ std::vector<glm::vec4> ParticleSystem::energies() {
 IterationStats ParticleSystem::step() {
   bool lists = false;
   if (uses_lists()) {
-    if (lists_valid_ && drift_ <= options_.drift_limit()) {
+    const float limit = options_.drift_limit();
+    if (lists_valid_ && drift_ <= limit) {
       lists = true;
-    } else if (walk_steps_left_ > 0) {
-      --walk_steps_left_;
-    } else if (lists_valid_ && list_steps_ < 2) {
-      // Lists that served one step cost more than that step's walk: walk for a while (longer each time it happens
-      // in a row), then try again (particle_system.h).
-      walk_steps_left_ = backoff_ - 1;
-      backoff_ = std::min(backoff_ * 2, kMaxBackoff);
-      lists_valid_ = false;
     } else {
-      if (lists_valid_) backoff_ = kMinBackoff;  // they lasted
-      build_lists();
-      lists = uses_lists();  // (the build may have found them too long)
+      // Expired lists tell how far the particles moved per step while they served.
+      if (lists_valid_) last_move_ = drift_ / float(std::max(list_steps_, 1));
+      lists_valid_ = false;
+      // New lists only where they will serve two steps or more (particle_system.h): the last step moved no
+      // particle farther than the bound.
+      if (last_move_ <= limit) {
+        build_lists();
+        lists = uses_lists();  // (the build may have found them too long)
+      }
     }
   }
   if (lists) ++list_steps_;
   last_step_listed_ = lists;
+  const bool measure = uses_lists();  // each step's drift: from the lists' anchors, or this walked step's move
   gpu::Sequence seq(*ctx_);
   seq.fill(lost_, 0);
-  if (lists) seq.fill(drift_bits_, 0);
+  if (measure) seq.fill(drift_bits_, 0);
   seq.barrier();
   if (lists) {
     const struct {
@@ -210,6 +210,7 @@ IterationStats ParticleSystem::step() {
     seq.dispatch(neighbour_energy_, {particles_, lists_, list_lengths_, walk_result_, counts_}, push, n_).barrier();
   } else {
     record_walk(seq, rebuild_due());
+    if (measure) seq.copy(particles_, anchors_, uint64_t(n_) * sizeof(glm::vec4)).barrier();
   }
   ++steps_since_build_;
   const auto& e = *embedding_;
@@ -225,15 +226,17 @@ IterationStats ParticleSystem::step() {
                 feature_kinds_, walk_result_, energy_, lost_},
                push, n_)
       .barrier();
-  if (lists) seq.dispatch(neighbour_drift_, {particles_, anchors_, drift_bits_}, n_, n_);
+  if (measure) seq.dispatch(neighbour_drift_, {particles_, anchors_, drift_bits_}, n_, n_);
   reduce_.record(seq, gpu::ReduceOp::sum, energy_, n_, readback_);
   seq.submit_and_wait();
   IterationStats s;
   s.energy = readback_.read(0);
   s.lost = lost_.read(0);
-  if (lists) {
+  if (measure) {
     const uint32_t bits = drift_bits_.read(0);
-    std::memcpy(&drift_, &bits, sizeof bits);
+    float moved;
+    std::memcpy(&moved, &bits, sizeof bits);
+    (lists ? drift_ : last_move_) = moved;
   }
   return s;
 }

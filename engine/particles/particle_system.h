@@ -10,6 +10,7 @@
 // Barnes-Hut mode) every iteration walks the octree, re-sorted and rebuilt every rebuild_every iterations and
 // refitted in between.
 #include <algorithm>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -42,10 +43,15 @@ struct AdvectionOptions {
   // apart; after moves of at most delta h_a and delta h_b, with h Lipschitz with constant g along the surfaces (so
   // h_b <= m + g r0, and h_a grows by at most g delta m), it is still at least SUPPORT m (1 + g delta) apart, beyond
   // the support, when delta <= SUPPORT s / (2 + SUPPORT g (2 + s)).
-  // Lists pay for their build (a walk with the wider reach, about 1.2 plain walks on lavapipe, plus a refit) only
-  // when they serve two steps or more (a step over them costs about 0.15 walks there). Where a few particles keep
-  // moving fast (new ones after an add/delete round, thin layers that do not settle) they serve one: then the next
-  // 4 steps walk the octree instead, 8 the next time it happens in a row, up to 32, and the lists are tried again.
+  // Lists pay for their build (a walk with the wider reach, about 1.4 plain walks on lavapipe, plus a refit) only
+  // when they serve two steps or more (a step over them costs about a third of a walk there), that is when no
+  // particle moves more than drift_limit() h in a step. So lists are built only after a step that moved no particle
+  // farther than that: a walked step measures its largest move (neighbour_drift.comp from the positions before it),
+  // expired lists give their mean per step. A system's first step walks (nothing measured yet); where some particles
+  // move fast (all of them just after seeding, the new ones after an add/delete round for about three steps, thin
+  // layers that do not settle) the steps walk until they slow down. (Before: lists were built regardless and, when
+  // they served one step, the next 4 to 32 steps walked; the 128^3 wedge ball took 15 walks and 12 builds in its
+  // 50 steps, now 13 and 11, all of them needed.)
   // A list buffer longer than the device allows (maxStorageBufferRange) or than kMaxListEntries per particle turns
   // the lists off for that system (uses_lists() false): it walks the octree every step instead.
   // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding), before the
@@ -111,6 +117,7 @@ class ParticleSystem {
   int list_builds() const { return list_builds_; }      // neighbour list builds so far
   uint32_t list_capacity() const { return list_capacity_; }  // entries per particle of the list buffer
   float drift() const { return drift_; }  // largest move / h since the lists were built, after the last step()
+  float last_move() const { return last_move_; }  // what decides the next build (below); infinite before any step
 
   // Population check (seed paper Sec. 6.2, step one; particles/population.h): walks the tree at the current
   // positions, then flags add/delete candidates on the GPU (shaders/population_flags.comp) against each feature's
@@ -177,9 +184,9 @@ class ParticleSystem {
   int list_builds_ = 0;
   int list_steps_ = 0;        // steps served by the current lists
   bool last_step_listed_ = false;  // the last energy evaluation summed over the lists (no walk)
-  static constexpr int kMinBackoff = 4, kMaxBackoff = 32;
-  int backoff_ = kMinBackoff;  // steps walked the next time lists serve only one step
-  int walk_steps_left_ = 0;    // of those
+  // The largest move / h of one step, measured by the last walked step or averaged over the last lists' steps; none
+  // yet: the first step walks.
+  float last_move_ = std::numeric_limits<float>::infinity();
 };
 
 }  // namespace cpmesh::particles
