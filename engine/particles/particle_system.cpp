@@ -118,6 +118,18 @@ void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
   moments_.record(seq, nodes_, level_info_, order_, particles_, masks_, node_moments_, n_, max_level_);
 }
 
+void ParticleSystem::record_energies(gpu::Sequence& seq, bool lists) {
+  last_step_listed_ = lists;
+  if (!lists) {
+    record_walk(seq, rebuild_due());
+    return;
+  }
+  const struct {
+    uint32_t n, capacity;
+  } push{n_, list_capacity_};
+  seq.dispatch(neighbour_energy_, {particles_, lists_, list_lengths_, walk_result_, counts_}, push, n_).barrier();
+}
+
 void ParticleSystem::record_walk(gpu::Sequence& seq, bool rebuild) {
   record_tree(seq, rebuild);
   last_step_listed_ = false;
@@ -182,7 +194,7 @@ IterationStats ParticleSystem::step() {
   bool lists = false;
   if (uses_lists()) {
     const float limit = options_.drift_limit();
-    if (lists_valid_ && drift_ <= limit) {
+    if (lists_hold()) {
       lists = true;
     } else {
       // Expired lists tell how far the particles moved per step while they served.
@@ -197,21 +209,13 @@ IterationStats ParticleSystem::step() {
     }
   }
   if (lists) ++list_steps_;
-  last_step_listed_ = lists;
   const bool measure = uses_lists();  // each step's drift: from the lists' anchors, or this walked step's move
   gpu::Sequence seq(*ctx_);
   seq.fill(lost_, 0);
   if (measure) seq.fill(drift_bits_, 0);
   seq.barrier();
-  if (lists) {
-    const struct {
-      uint32_t n, capacity;
-    } push{n_, list_capacity_};
-    seq.dispatch(neighbour_energy_, {particles_, lists_, list_lengths_, walk_result_, counts_}, push, n_).barrier();
-  } else {
-    record_walk(seq, rebuild_due());
-    if (measure) seq.copy(particles_, anchors_, uint64_t(n_) * sizeof(glm::vec4)).barrier();
-  }
+  record_energies(seq, lists);
+  if (!lists && measure) seq.copy(particles_, anchors_, uint64_t(n_) * sizeof(glm::vec4)).barrier();
   ++steps_since_build_;
   const auto& e = *embedding_;
   const struct {
@@ -247,7 +251,8 @@ ParticleSystem::PopulationCheck ParticleSystem::check_population(const std::vect
   gpu::Buffer<uint32_t> counters(*ctx_, 2 + 2 * ideals.size(), "population counters", gpu::MemoryUse::readback);
   gpu::Sequence seq(*ctx_);
   seq.fill(counters, 0).barrier();
-  record_walk(seq, true);
+  // The energies at the current positions: over the lists while they hold (no tree work), else by a walk.
+  record_energies(seq, lists_hold());
   const struct {
     uint32_t n;
     float delete_factor, add_factor;

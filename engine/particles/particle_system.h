@@ -119,20 +119,27 @@ class ParticleSystem {
   float drift() const { return drift_; }  // largest move / h since the lists were built, after the last step()
   float last_move() const { return last_move_; }  // what decides the next build (below); infinite before any step
 
-  // Population check (seed paper Sec. 6.2, step one; particles/population.h): walks the tree at the current
-  // positions, then flags add/delete candidates on the GPU (shaders/population_flags.comp) against each feature's
-  // ideal energy. Reads back 2 + 2 x features numbers; flags() and walk_result() read the rest only when needed.
+  // Population check (seed paper Sec. 6.2, step one; particles/population.h): the energies at the current positions
+  // (over the neighbour lists while they hold, else by a walk), then flags add/delete candidates on the GPU
+  // (shaders/population_flags.comp) against each feature's ideal energy. Reads back 2 + 2 x features numbers;
+  // flags() and walk_result() read the rest only when needed.
   struct PopulationCheck {
     uint32_t delete_candidates = 0, add_candidates = 0;
     std::vector<double> energy_ratio;  // per feature: mean E / ideal (0 where it has no particle or no ideal)
     std::vector<uint32_t> count;       // per feature: particles counted
   };
   PopulationCheck check_population(const std::vector<float>& ideals, float delete_factor, float add_factor);
-  std::vector<uint32_t> flags() const { return in_caller_order(flags_); }  // of the last check: 0, 1 delete, 2 add
+  // Of the last check: 0, 1 delete, 2 add. Read them before the next step() or energies(), which may re-sort the
+  // slots.
+  std::vector<uint32_t> flags() const { return in_caller_order(flags_); }
   std::vector<glm::vec4> walk_result() const { return in_caller_order(walk_result_); }  // (gradient, E), last walk
 
  private:
   void record_walk(gpu::Sequence& seq, bool rebuild);
+  // Every particle's energy and gradient into walk_result_: over the neighbour lists (lists: lists_hold()) or by a
+  // walk (the octree re-sorted when rebuild_due()).
+  void record_energies(gpu::Sequence& seq, bool lists);
+  bool lists_hold() const { return uses_lists() && lists_valid_ && drift_ <= options_.drift_limit(); }
   void record_tree(gpu::Sequence& seq, bool rebuild);  // sort and build (rebuild) or not, then the moments
   bool rebuild_due() const {  // the octree's topology is rebuild_every steps old (or was never built)
     return steps_since_build_ < 0 || steps_since_build_ >= std::max(options_.rebuild_every, 1);

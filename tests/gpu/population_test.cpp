@@ -82,6 +82,37 @@ TEST_CASE_FIXTURE(GpuFixture, "population flags on the GPU match the reference")
   CHECK(check.energy_ratio[0] == doctest::Approx(mean / 500.0).epsilon(1e-3));
 }
 
+TEST_CASE_FIXTURE(GpuFixture, "the population check over the neighbour lists gives the walk's energies and flags") {
+  const auto& s = sphere();
+  const auto start = random_on_sphere(s, 500, 7);
+  particles::ParticleSystem system(ctx, s.fields.embedding, start.particles, start.features);
+  const auto ideals = particles::feature_ideals(s.fields.embedding);
+  // Step until a step is summed over lists that still hold for the positions after it.
+  const float limit = particles::AdvectionOptions().drift_limit();
+  int steps = 0;
+  do {
+    system.step();
+    ++steps;
+  } while (steps < 60 && !(system.last_node_visits() == 0 && system.drift() <= limit));
+  REQUIRE(steps < 60);
+  MESSAGE(steps << " steps, " << system.list_builds() << " list builds");
+  const auto check = system.check_population(ideals, 2.0f, 0.5f);
+  CHECK(system.last_node_visits() == 0);  // the check summed over the lists
+  const auto listed = system.walk_result();
+  const auto listed_flags = system.flags();
+  const auto walked = system.energies();  // a walk of a freshly built octree at the same positions
+  REQUIRE(listed.size() == walked.size());
+  double worst = 0;
+  for (size_t i = 0; i < listed.size(); ++i)
+    worst = std::max(worst, double(std::fabs(listed[i].w - walked[i].w)) / (1.0 + std::fabs(walked[i].w)));
+  CHECK(worst < 1e-5);
+  std::vector<uint32_t> flags, counters;
+  ref::population_flags(listed, start.features, ideals, 2.0f, 0.5f, flags, counters);
+  CHECK(listed_flags == flags);
+  CHECK(check.delete_candidates == counters[0]);
+  CHECK(check.add_candidates == counters[1]);
+}
+
 TEST_CASE("ideal energy: hexagonal packing at h, and the density its energy implies") {
   const double e1 = particles::pair_energy(float(1.0 / std::sqrt(3.0)));
   CHECK(particles::ideal_energy(fields::FeatureKind::interface) == doctest::Approx(6 * e1).epsilon(1e-6));
