@@ -6,7 +6,8 @@
 // The energy comes from Verlet neighbour lists (the default, AdvectionOptions::neighbour_skin > 0): the octree
 // (Morton sort, build, moments) is walked only to list, for each particle, the particles within a skin beyond its
 // energy's support, and each iteration sums over those lists until some particle has drifted far enough that a pair
-// outside them could interact (drift_limit()); then the next iteration rebuilds them. Without lists (skin 0, or the
+// outside them could interact (drift_limit()); then the next iteration rebuilds them, or walks the octree while the
+// particles move too fast for new lists to serve two iterations (AdvectionOptions). Without lists (skin 0, or the
 // Barnes-Hut mode) every iteration walks the octree, re-sorted and rebuilt every rebuild_every iterations and
 // refitted in between.
 #include <algorithm>
