@@ -42,14 +42,14 @@ struct NodeMoments {
   gpu::Buffer<glm::vec4> lo, hi, com, and_mask;
 };
 
-// Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
-// one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
 // Per particle, its feature's material set (feature_masks[features[i]], a 64-bit mask) as x (low word) and y (high
 // word), z and w 0: what the moments and the walks (tree_walk.h) read of a particle's feature, one texel each.
 // Throws for a feature index outside feature_masks.
 std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
                                        const std::vector<uint64_t>& feature_masks);
 
+// Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
+// one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
 class OctreeMoments {
  public:
   explicit OctreeMoments(gpu::Context& ctx);

@@ -111,11 +111,16 @@ void ParticleSystem::record_tree(gpu::Sequence& seq, bool rebuild) {
     std::swap(ids_, ids_spare_);
     std::swap(masks_, masks_spare_);
     ids_host_.clear();
-    lists_valid_ = false;  // the slots moved
+    discard_lists();  // the slots moved
     build_.record(seq, keys_, n_, options_.leaf_size, nodes_, level_info_, max_level_);
     steps_since_build_ = 0;
   }
   moments_.record(seq, nodes_, level_info_, order_, particles_, masks_, node_moments_, n_, max_level_);
+}
+
+void ParticleSystem::discard_lists() {
+  if (lists_valid_) last_move_ = drift_ / float(std::max(list_steps_, 1));
+  lists_valid_ = false;
 }
 
 void ParticleSystem::record_energies(gpu::Sequence& seq, bool lists) {
@@ -197,9 +202,7 @@ IterationStats ParticleSystem::step() {
     if (lists_hold()) {
       lists = true;
     } else {
-      // Expired lists tell how far the particles moved per step while they served.
-      if (lists_valid_) last_move_ = drift_ / float(std::max(list_steps_, 1));
-      lists_valid_ = false;
+      discard_lists();
       // New lists only where they will serve two steps or more (particle_system.h): the last step moved no
       // particle farther than the bound.
       if (last_move_ <= limit) {
@@ -240,7 +243,10 @@ IterationStats ParticleSystem::step() {
     const uint32_t bits = drift_bits_.read(0);
     float moved;
     std::memcpy(&moved, &bits, sizeof bits);
-    (lists ? drift_ : last_move_) = moved;
+    if (lists)
+      drift_ = moved;
+    else
+      last_move_ = moved;
   }
   return s;
 }

@@ -52,7 +52,7 @@ struct AdvectionOptions {
   // move fast (all of them just after seeding, the new ones after an add/delete round for about three steps, thin
   // layers that do not settle) the steps walk until they slow down. (Before: lists were built regardless and, when
   // they served one step, the next 4 to 32 steps walked; the 128^3 wedge ball took 15 walks and 12 builds in its
-  // 50 steps, now 13 and 11, all of them needed.)
+  // 50 steps, now 13 and 11; 11 walks once the population check summed over the lists that still held.)
   // A list buffer longer than the device allows (maxStorageBufferRange) or than kMaxListEntries per particle turns
   // the lists off for that system (uses_lists() false): it walks the octree every step instead.
   // Measured on lavapipe, 128^3 wedge ball at --max-size 2 (13 k particles, 40 steps from the seeding), before the
@@ -117,13 +117,16 @@ class ParticleSystem {
   static constexpr uint32_t kMaxListEntries = 256;  // per particle (uses_lists() above)
   int list_builds() const { return list_builds_; }      // neighbour list builds so far
   uint32_t list_capacity() const { return list_capacity_; }  // entries per particle of the list buffer
-  float drift() const { return drift_; }  // largest move / h since the lists were built, after the last step()
-  float last_move() const { return last_move_; }  // what decides the next build (below); infinite before any step
+  // Largest move / h since the lists were built, after the last step() that summed over them.
+  float drift() const { return drift_; }
+  // Largest move / h in one step: of the last walked step, or the mean per step of the last lists (what decides the
+  // next build, below); infinite before any step.
+  float last_move() const { return last_move_; }
 
   // Population check (seed paper Sec. 6.2, step one; particles/population.h): the energies at the current positions
-  // (over the neighbour lists while they hold, else by a walk), then flags add/delete candidates on the GPU
-  // (shaders/population_flags.comp) against each feature's ideal energy. Reads back 2 + 2 x features numbers;
-  // flags() and walk_result() read the rest only when needed.
+  // (over the neighbour lists while they hold, else by a walk of the octree, re-sorted only on its schedule), then
+  // flags add/delete candidates on the GPU (shaders/population_flags.comp) against each feature's ideal energy.
+  // Reads back 2 + 2 x features numbers; flags() and walk_result() read the rest only when needed.
   struct PopulationCheck {
     uint32_t delete_candidates = 0, add_candidates = 0;
     std::vector<double> energy_ratio;  // per feature: mean E / ideal (0 where it has no particle or no ideal)
@@ -133,10 +136,13 @@ class ParticleSystem {
   // Of the last check: 0, 1 delete, 2 add. Read them before the next step() or energies(), which may re-sort the
   // slots.
   std::vector<uint32_t> flags() const { return in_caller_order(flags_); }
-  std::vector<glm::vec4> walk_result() const { return in_caller_order(walk_result_); }  // (gradient, E), last walk
+  // (gradient, E) of the last energy evaluation (a step's, the check's), by a walk or over the lists.
+  std::vector<glm::vec4> walk_result() const { return in_caller_order(walk_result_); }
 
  private:
   void record_walk(gpu::Sequence& seq, bool rebuild);
+  // The lists no longer serve (expired, or the slots moved): their mean move per step becomes last_move_.
+  void discard_lists();
   // Every particle's energy and gradient into walk_result_: over the neighbour lists (lists: lists_hold()) or by a
   // walk (the octree re-sorted when rebuild_due()).
   void record_energies(gpu::Sequence& seq, bool lists);
@@ -181,8 +187,9 @@ class ParticleSystem {
   gpu::Buffer<glm::uvec4> nodes_;
   gpu::Buffer<glm::uvec2> level_info_;
   gpu::Buffer<float> energy_, readback_;
-  // Neighbour lists: entries (n x capacity, allocated at the first build), lengths, positions at the build, and two
-  // readback words (longest list, drift bits).
+  // Neighbour lists: entries (n x capacity, allocated at the first build), lengths, anchors (the positions at the
+  // build, or before a walked step's advection, which measures its move from them), and two readback words (longest
+  // list, drift bits).
   gpu::Buffer<uint32_t> lists_, list_lengths_, longest_, drift_bits_;
   gpu::Buffer<glm::vec4> anchors_;
   uint32_t list_capacity_ = 0;

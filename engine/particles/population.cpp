@@ -283,13 +283,14 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
   for (fields::FeatureKind kind : {fields::FeatureKind::triple_curve, fields::FeatureKind::interface}) {
     // Candidates of this dimension: grid points next to the feature, projected (the stored closest point of the
     // block's first fine point), and random points in the cells where h is small, projected by the lookup. The
-    // slots are independent (each draws from its own generator, seeded by the run's seed and the slot), so they
-    // are found and run in parallel and joined in slot order: the same candidates on any number of threads.
+    // slots are found in chunks of the hash table, in parallel, and kept in slot order. They are independent (each
+    // draws from its own generator, seeded by the run's seed and the slot), so they run in parallel too, and their
+    // candidates are joined in slot order: the same candidates on any number of threads.
     constexpr size_t kScanChunk = size_t(1) << 14, kSlotsPerTask = 256;
     const std::vector<size_t> slots = collect_in_order<size_t>(
-        int((E.keys.size() + kScanChunk - 1) / kScanChunk), [&](int c, std::vector<size_t>& out_here) {
-          const size_t end = std::min(E.keys.size(), size_t(c + 1) * kScanChunk);
-          for (size_t slot = size_t(c) * kScanChunk; slot < end; ++slot) {
+        int((E.keys.size() + kScanChunk - 1) / kScanChunk), [&](int chunk, std::vector<size_t>& out_here) {
+          const size_t end = std::min(E.keys.size(), size_t(chunk + 1) * kScanChunk);
+          for (size_t slot = size_t(chunk) * kScanChunk; slot < end; ++slot) {
             if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
             const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
             if (E.features[f].kind != kind) continue;
@@ -298,9 +299,9 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
         });
     std::vector<std::pair<glm::vec4, uint32_t>> candidates = collect_in_order<std::pair<glm::vec4, uint32_t>>(
         int((slots.size() + kSlotsPerTask - 1) / kSlotsPerTask),
-        [&](int c, std::vector<std::pair<glm::vec4, uint32_t>>& out_here) {
-          const size_t end = std::min(slots.size(), size_t(c + 1) * kSlotsPerTask);
-          for (size_t k = size_t(c) * kSlotsPerTask; k < end; ++k) {
+        [&](int task, std::vector<std::pair<glm::vec4, uint32_t>>& out_here) {
+          const size_t end = std::min(slots.size(), size_t(task + 1) * kSlotsPerTask);
+          for (size_t k = size_t(task) * kSlotsPerTask; k < end; ++k) {
             const size_t slot = slots[k];
             const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
             const size_t cell = size_t(E.keys[slot] >> 16);
@@ -316,7 +317,7 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
             int count = int(expected);
             if (u01(slot_rng) < expected - count) ++count;
             const glm::vec3 corner = glm::vec3(E.grid.local(glm::dvec3(E.grid.voxel(cell)) - 0.5));
-            for (int n = 0; n < count; ++n) {
+            for (int c = 0; c < count; ++c) {
               const float a = u01(slot_rng), b = u01(slot_rng), d = u01(slot_rng);
               const glm::vec3 q = corner + glm::vec3(a, b, d) * glm::vec3(E.grid.spacing);
               const auto res = ref::cp_lookup(E, q, f);

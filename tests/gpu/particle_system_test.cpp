@@ -251,7 +251,6 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
   CHECK(b.uses_lists());
   double worst_energy = 0;
   int64_t worst_pairs = 0;
-  int thin_builds_allowed = 0;
   for (int it = 0; it < 16; ++it) {
     // A build only after a step that moved no particle farther than the lists' bound (none before the first step).
     const bool thin_may_build = c.last_move() <= thin.drift_limit();
@@ -259,7 +258,6 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
     const auto b_before = b.particles();
     const double ea = a.step().energy, eb = b.step().energy, ec = c.step().energy;
     CHECK(c.list_builds() - thin_builds_before <= int(thin_may_build));
-    thin_builds_allowed += thin_may_build;
     worst_energy = std::max({worst_energy, std::fabs(ea - eb) / ea, std::fabs(ea - ec) / ea});
     // The pairs that interacted (d < 1) in this step's energy: the same pairs in all three.
     const int64_t pairs = int64_t(a.last_pair_count());
@@ -288,17 +286,17 @@ TEST_CASE_FIXTURE(GpuFixture, "neighbour lists give the iterations of a walk eve
   }
   MESSAGE("energies within " << worst_energy << " (relative) over 16 steps; " << b.list_builds() << " list builds, "
                              << b.list_capacity() << " entries per particle; skin " << thin.neighbour_skin << ": "
-                             << c.list_builds() << " builds after " << thin_builds_allowed << " slow steps");
+                             << c.list_builds() << " builds");
   CHECK(b.list_builds() >= 2);   // the drift bound made it rebuild
   CHECK(b.list_builds() <= 8);   // and the lists served several steps each
-  CHECK(c.list_builds() >= 1);  // some steps were slow enough, and those lists expired within a step or two
+  CHECK(c.list_builds() >= 3);  // some steps were slow enough, and their lists soon expired (measured: 7 builds)
   // From the random start the first steps move particles the full max_move h, beyond the bound: they walk.
   particles::ParticleSystem d(ctx, s.fields.embedding, random_start, features, lists);
   d.step();
   CHECK(d.last_move() > lists.drift_limit());
   d.step();
   CHECK(d.list_builds() == 0);
-  // Measured: the same pair counts every step (4,926 -> 4,802); with the thin lists never rebuilt, 46 pairs short
+  // Measured: the same pair counts every step (4,926 -> 4,802); with lists of skin 0.02 never rebuilt, 46 pairs short
   // by step 16. A pair at d = 1 within rounding may still flip between the runs.
   MESSAGE("pair counts differ by at most " << worst_pairs);
   CHECK(worst_pairs <= 2);

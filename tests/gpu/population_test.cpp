@@ -90,11 +90,13 @@ TEST_CASE_FIXTURE(GpuFixture, "the population check over the neighbour lists giv
   // Step until a step is summed over lists that still hold for the positions after it.
   const float limit = particles::AdvectionOptions().drift_limit();
   int steps = 0;
-  do {
+  bool held = false;
+  while (steps < 60 && !held) {
     system.step();
     ++steps;
-  } while (steps < 60 && !(system.last_node_visits() == 0 && system.drift() <= limit));
-  REQUIRE(steps < 60);
+    held = system.last_node_visits() == 0 && system.drift() <= limit;
+  }
+  REQUIRE(held);
   MESSAGE(steps << " steps, " << system.list_builds() << " list builds");
   const auto check = system.check_population(ideals, 2.0f, 0.5f);
   CHECK(system.last_node_visits() == 0);  // the check summed over the lists

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstring>
 #include <random>
+#include <stdexcept>
 
 #include "cpmesh/shaders.h"
 #include "gpu_fixture.h"
