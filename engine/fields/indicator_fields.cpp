@@ -29,10 +29,11 @@ struct Box {
   glm::ivec3 size() const { return hi - lo + 1; }
 };
 
-// Separable Gaussian along one axis of a crop, in place, lines in parallel. Samples beyond the crop repeat the edge.
-// Along y and z the lines are taken kLanes neighbours in x at a time: each step along the line reads kLanes
-// consecutive floats instead of one per cache line, and the lanes' sums vectorize. Every lane adds the same terms
-// in the same order as a line on its own, so the result is the same to the bit.
+}  // namespace
+
+// Lines in parallel. Along y and z the lines are taken kLanes neighbours in x at a time: each step along the line
+// reads kLanes consecutive floats instead of one per cache line, and the lanes' sums vectorize. Every lane adds the
+// same terms in the same order as a line on its own, so the result is the same to the bit.
 void gaussian_pass(std::span<float> f, const glm::ivec3& n, int axis, double sigma) {
   if (sigma <= 0) return;
   const int radius = int(std::ceil(3.0 * sigma));
@@ -88,6 +89,8 @@ void gaussian_pass(std::span<float> f, const glm::ivec3& n, int axis, double sig
       }
   });
 }
+
+namespace {
 
 double smoothstep01(double x) {
   x = std::clamp(x, 0.0, 1.0);

@@ -32,6 +32,7 @@
 // particles. At 0.6 the sizing field reads the bends as curvature: more particles, worse triangles, no better
 // worst edge.
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -74,5 +75,11 @@ struct IndicatorFields {
 
 // labels: grid.voxel_count() values, x fastest. Every label value present becomes a material (the background too).
 IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels, const IndicatorOptions& options = {});
+
+// The antialiasing's separable Gaussian along one axis (0 x, 1 y, 2 z) of an n.x x n.y x n.z array f (x fastest),
+// in place: sample q becomes float(sum over r of w_r f[clamp(q + r)]), r from -ceil(3 sigma) to ceil(3 sigma), the
+// weights exp(-r^2 / (2 sigma^2)) normalised, summed in double in that order; samples beyond the ends repeat the
+// edge, so a window that holds one value gives that value back. sigma in samples; <= 0: nothing.
+void gaussian_pass(std::span<float> f, const glm::ivec3& n, int axis, double sigma);
 
 }  // namespace cpmesh::fields

@@ -383,8 +383,9 @@ SizingStats compute_sizing_field(const IndicatorFields& F, ClosestPointEmbedding
   struct Range {
     double lo = 1e300, hi = 0, sum = 0;
   };
-  const Range range = tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, E.fine.size()), Range{},
+  // (A deterministic reduce in fixed chunks: the same mean on every run and thread count.)
+  const Range range = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<size_t>(0, E.fine.size(), size_t(1) << 13), Range{},
       [&](const tbb::blocked_range<size_t>& r, Range acc) {
         // The 8 cells around the previous point (a block's closest points mostly share them): their slots, or -1.
         glm::ivec3 last(INT_MIN);
