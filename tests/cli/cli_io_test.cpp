@@ -265,6 +265,27 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
     CHECK_MESSAGE(scaling.at("exponents").at(key).is_number(), key);  // fitted (its value is timing: not tested)
   CHECK(!scaling.at("exponents").contains("volume mesh"));  // --only-surfaces: in no row
 
+  // --repeat: each volume run again, then a summary of the runs (the CGAL peer's part where it was built and ran).
+  const auto twice = run_tool("cpmesh-bench-pipeline --volumes sphere:28 --no-peer --only-surfaces --repeat 2");
+  REQUIRE_MESSAGE(twice.exit_code == 0, twice.output);
+  nlohmann::json summary;
+  std::vector<double> totals;
+  std::istringstream twice_lines(twice.output);
+  while (std::getline(twice_lines, line)) {
+    if (line.rfind("{\"benchmark\":\"pipeline_repeat\"", 0) == 0) summary = nlohmann::json::parse(line);
+    if (line.rfind("{\"benchmark\":\"pipeline\"", 0) == 0)
+      totals.push_back(nlohmann::json::parse(line).at("total_s").get<double>());
+  }
+  REQUIRE(totals.size() == 2);
+  REQUIRE(summary.is_object());
+  INFO(summary.dump());
+  CHECK(summary.at("runs") == 2);
+  CHECK(summary.at("total_s").get<std::vector<double>>() == totals);
+  CHECK(summary.at("median_s").get<double>() == doctest::Approx(0.5 * (totals[0] + totals[1])));
+  CHECK(!summary.contains("median_ratio"));  // --no-peer
+  CHECK(contains(twice.output, "sphere:28: 2 runs, median"));
+  CHECK(run_tool("cpmesh-bench-pipeline --volumes sphere:28 --no-peer --repeat 0").exit_code != 0);
+
   // Every spec is checked before the first run.
   for (const auto& [volumes, says] : std::vector<std::pair<std::string, std::string>>{
            {"sphere:24,cube:32", "volume 'cube:32': field 'shape'"}, {"sphere:24,sphere:x", "volume 'sphere:x': field 'size'"},
