@@ -91,4 +91,14 @@ std::vector<T> collect_in_order(int count, Visit&& visit) {
   return all;
 }
 
+// collect_in_order over the indices [0, count) in fixed chunks of `chunk` (a chunk a task): visit(i, out) for every
+// i, the results in i order, as one loop over i gives them.
+template <class T, class Visit>
+std::vector<T> collect_in_order_by_index(size_t count, size_t chunk, Visit&& visit) {
+  return collect_in_order<T>(int((count + chunk - 1) / chunk), [&](int c, std::vector<T>& out) {
+    const size_t end = std::min(count, (size_t(c) + 1) * chunk);
+    for (size_t i = size_t(c) * chunk; i < end; ++i) visit(i, out);
+  });
+}
+
 }  // namespace cpmesh

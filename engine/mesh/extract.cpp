@@ -163,15 +163,11 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
   // Chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
-  constexpr size_t kChunk = 1 << 16;
-  const size_t faces = adj.neighbour.size();
-  return collect_in_order<uint32_t>(int((faces + kChunk - 1) / kChunk), [&](int k, auto& out) {
-    for (uint32_t tc = uint32_t(size_t(k) * kChunk); tc < std::min(faces, (size_t(k) + 1) * kChunk); ++tc) {
-      const uint32_t nb = adj.neighbour[tc];
-      if (nb != Adjacency::kHull && nb < tc) continue;  // each shared face once
-      if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials))
-        out.push_back(tc);
-    }
+  return collect_in_order_by_index<uint32_t>(adj.neighbour.size(), size_t(1) << 16, [&](size_t i, auto& out) {
+    const uint32_t tc = uint32_t(i), nb = adj.neighbour[tc];
+    if (nb != Adjacency::kHull && nb < tc) return;  // each shared face once
+    if (face_is_wrong(T, tc, material[tc / 4], material_across(adj, hull, material, tc), vertex_materials))
+      out.push_back(tc);
   });
 }
 

@@ -286,43 +286,35 @@ Population seed_population(const fields::ClosestPointEmbedding& E, const Populat
     // slots are found in chunks of the hash table, in parallel, and kept in slot order. They are independent (each
     // draws from its own generator, seeded by the run's seed and the slot), so they run in parallel too, and their
     // candidates are joined in slot order: the same candidates on any number of threads.
-    constexpr size_t kScanChunk = size_t(1) << 14, kSlotsPerTask = 256;
-    const std::vector<size_t> slots = collect_in_order<size_t>(
-        int((E.keys.size() + kScanChunk - 1) / kScanChunk), [&](int chunk, std::vector<size_t>& out_here) {
-          const size_t end = std::min(E.keys.size(), size_t(chunk + 1) * kScanChunk);
-          for (size_t slot = size_t(chunk) * kScanChunk; slot < end; ++slot) {
-            if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) continue;
-            const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
-            if (E.features[f].kind != kind) continue;
-            if (E.touches_feature(size_t(E.keys[slot] >> 16), E.blocks[slot])) out_here.push_back(slot);
-          }
+    const std::vector<size_t> slots =
+        collect_in_order_by_index<size_t>(E.keys.size(), size_t(1) << 14, [&](size_t slot, auto& out_here) {
+          if (E.keys[slot] == fields::ClosestPointEmbedding::kEmpty) return;
+          const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
+          if (E.features[f].kind != kind) return;
+          if (E.touches_feature(size_t(E.keys[slot] >> 16), E.blocks[slot])) out_here.push_back(slot);
         });
-    std::vector<std::pair<glm::vec4, uint32_t>> candidates = collect_in_order<std::pair<glm::vec4, uint32_t>>(
-        int((slots.size() + kSlotsPerTask - 1) / kSlotsPerTask),
-        [&](int task, std::vector<std::pair<glm::vec4, uint32_t>>& out_here) {
-          const size_t end = std::min(slots.size(), size_t(task + 1) * kSlotsPerTask);
-          for (size_t k = size_t(task) * kSlotsPerTask; k < end; ++k) {
-            const size_t slot = slots[k];
-            const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
-            const size_t cell = size_t(E.keys[slot] >> 16);
-            const glm::vec4 cp = E.fine[size_t(E.blocks[slot]) * per_block];
-            out_here.push_back({cp, f});
-            if (grid_only) continue;
-            const double h_vox = cp.w / voxel;
-            if (h_vox >= options.random_seed_below) continue;
-            std::mt19937 slot_rng(uint32_t(options.seed) * 0x9E3779B1u ^ uint32_t(slot) * 0x85EBCA77u ^
-                                  uint32_t(slot >> 32));
-            std::uniform_real_distribution<float> u01(0.0f, 1.0f);
-            const double expected = options.random_seed_constant / std::max(h_vox, 1e-3);
-            int count = int(expected);
-            if (u01(slot_rng) < expected - count) ++count;
-            const glm::vec3 corner = glm::vec3(E.grid.local(glm::dvec3(E.grid.voxel(cell)) - 0.5));
-            for (int c = 0; c < count; ++c) {
-              const float a = u01(slot_rng), b = u01(slot_rng), d = u01(slot_rng);
-              const glm::vec3 q = corner + glm::vec3(a, b, d) * glm::vec3(E.grid.spacing);
-              const auto res = ref::cp_lookup(E, q, f);
-              if (res.valid) out_here.push_back({res.value, f});
-            }
+    std::vector<std::pair<glm::vec4, uint32_t>> candidates = collect_in_order_by_index<std::pair<glm::vec4, uint32_t>>(
+        slots.size(), 256, [&](size_t k, auto& out_here) {
+          const size_t slot = slots[k];
+          const uint32_t f = uint32_t(E.keys[slot] & 0xffff);
+          const size_t cell = size_t(E.keys[slot] >> 16);
+          const glm::vec4 cp = E.fine[size_t(E.blocks[slot]) * per_block];
+          out_here.push_back({cp, f});
+          if (grid_only) return;
+          const double h_vox = cp.w / voxel;
+          if (h_vox >= options.random_seed_below) return;
+          std::mt19937 slot_rng(uint32_t(options.seed) * 0x9E3779B1u ^ uint32_t(slot) * 0x85EBCA77u ^
+                                uint32_t(slot >> 32));
+          std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+          const double expected = options.random_seed_constant / std::max(h_vox, 1e-3);
+          int count = int(expected);
+          if (u01(slot_rng) < expected - count) ++count;
+          const glm::vec3 corner = glm::vec3(E.grid.local(glm::dvec3(E.grid.voxel(cell)) - 0.5));
+          for (int c = 0; c < count; ++c) {
+            const float a = u01(slot_rng), b = u01(slot_rng), d = u01(slot_rng);
+            const glm::vec3 q = corner + glm::vec3(a, b, d) * glm::vec3(E.grid.spacing);
+            const auto res = ref::cp_lookup(E, q, f);
+            if (res.valid) out_here.push_back({res.value, f});
           }
         });
     st.grid_candidates += slots.size();
