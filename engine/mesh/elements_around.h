@@ -22,8 +22,7 @@ class ElementsAround {
             vertices, elements.size(),
             [&](size_t e, auto&& add) {
               for (uint32_t v : elements[e]) add(v);
-            },
-            true)) {}
+            })) {}
   std::span<const uint32_t> operator[](uint32_t v) const {
     if (!changed_.empty())
       if (const auto it = changed_.find(v); it != changed_.end()) return it->second;

@@ -1,13 +1,21 @@
 #pragma once
-// Items grouped by key in one array (compressed rows): the items of key k are list[begin[k], begin[k + 1]). Built by
-// a parallel counting sort: keys_of(item, add) calls add(key) for each key of the item (any number, the same ones
-// when called again). Within a key the items are in ascending order where `ascending`, else in any order.
-// Serves the vertex -> elements tables (elements_around.h) and the triangle grid of crossing_triangles (quality.cpp).
+// Items grouped by key in one array (compressed rows): the items of key k are list[begin[k], begin[k + 1]), in
+// ascending order. keys_of(item, add) calls add(key) for each key (< keys) of the item: any number, the same ones
+// when called again; a key added twice for one item lists the item twice.
+// Serves the vertex -> elements tables (elements_around.h), the triangle grid of crossing_triangles (quality.cpp) and
+// the walls of split_material.
+//
+// A two-level counting sort, stable, so that the result is the same on any thread count: the items, in chunks, are
+// first scattered by their keys' high bits into at most 2048 buckets (each chunk counts its own, so no two threads
+// touch one counter), then each bucket, whose keys span at most keys / 1024, is sorted by the low bits in cache.
+// The direct way, one counter per key bumped atomically from every thread, missed the cache on nearly every add: on
+// a piece of 2.3 M tets (9.2 M adds over 1.6 M vertices) it took 1.5 s on one thread, this 0.1 s.
 #include <algorithm>
-#include <atomic>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -24,26 +32,57 @@ struct Grouped {
 };
 
 template <typename KeysOf>
-Grouped group_by_key(size_t keys, size_t items, KeysOf&& keys_of, bool ascending) {
+Grouped group_by_key(size_t keys, size_t items, KeysOf&& keys_of) {
   Grouped g;
-  g.begin.assign(keys + 1, 0);
-  std::vector<std::atomic<size_t>> next(keys);
-  const tbb::blocked_range<size_t> all(0, items, 4096);
-  tbb::parallel_for(all, [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i)
-      keys_of(i, [&](size_t k) { next[k].fetch_add(1, std::memory_order_relaxed); });
+  g.begin.resize(keys + 1);
+  g.begin[keys] = 0;
+  if (keys == 0) return g;
+  int bits = 0;
+  while ((size_t(1) << bits) < keys) ++bits;
+  const int shift = std::max(0, bits - 11);
+  const size_t buckets = ((keys - 1) >> shift) + 1;
+  const size_t chunk = std::max<size_t>(4096, (items + 255) / 256);
+  const size_t chunks = (items + chunk - 1) / chunk;
+  auto chunk_range = [&](size_t c) { return std::pair{c * chunk, std::min(items, (c + 1) * chunk)}; };
+  // Each chunk's count per bucket, then where its items of each bucket go: buckets in order, chunks in order within.
+  std::vector<size_t> at(chunks * buckets, 0);
+  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+    size_t* mine = at.data() + c * buckets;
+    const auto [first, last] = chunk_range(c);
+    for (size_t i = first; i != last; ++i) keys_of(i, [&](size_t k) { ++mine[k >> shift]; });
   });
-  for (size_t k = 0; k < keys; ++k) g.begin[k + 1] = g.begin[k] + next[k].load(std::memory_order_relaxed);
-  for (size_t k = 0; k < keys; ++k) next[k].store(g.begin[k], std::memory_order_relaxed);
-  g.list.resize(g.begin[keys]);
-  tbb::parallel_for(all, [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i)
-      keys_of(i, [&](size_t k) { g.list[next[k].fetch_add(1, std::memory_order_relaxed)] = uint32_t(i); });
+  std::vector<size_t> bucket_begin(buckets + 1);
+  size_t total = 0;
+  for (size_t b = 0; b < buckets; ++b) {
+    bucket_begin[b] = total;
+    for (size_t c = 0; c < chunks; ++c) total += std::exchange(at[c * buckets + b], total);
+  }
+  bucket_begin[buckets] = total;
+  HostArray<std::array<uint32_t, 2>> scattered(total);  // (key, item)
+  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+    size_t* mine = at.data() + c * buckets;
+    const auto [first, last] = chunk_range(c);
+    for (size_t i = first; i != last; ++i)
+      keys_of(i, [&](size_t k) { scattered[mine[k >> shift]++] = {uint32_t(k), uint32_t(i)}; });
   });
-  if (ascending)
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, keys), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t k = r.begin(); k != r.end(); ++k) std::sort(g.list.begin() + g.begin[k], g.list.begin() + g.begin[k + 1]);
-    });
+  // Each bucket by its keys' low bits; its items stay in the order of the scatter, ascending.
+  g.list.resize(total);
+  g.begin[keys] = total;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets, 1), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<size_t> next;
+    for (size_t b = r.begin(); b != r.end(); ++b) {
+      const size_t k0 = b << shift, width = std::min(keys, (b + 1) << shift) - k0;
+      next.assign(width, 0);
+      for (size_t e = bucket_begin[b]; e != bucket_begin[b + 1]; ++e) ++next[scattered[e][0] - k0];
+      size_t at_key = bucket_begin[b];
+      for (size_t j = 0; j < width; ++j) {
+        g.begin[k0 + j] = at_key;
+        at_key += std::exchange(next[j], at_key);
+      }
+      for (size_t e = bucket_begin[b]; e != bucket_begin[b + 1]; ++e)
+        g.list[next[scattered[e][0] - k0]++] = scattered[e][1];
+    }
+  });
   return g;
 }
 

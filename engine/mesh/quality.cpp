@@ -406,8 +406,7 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
     }
   });
   const Grouped in_cell = group_by_key(
-      cells, nt, [&](size_t t, auto&& add) { for_cells(glm::dvec3(boxes[t][0]), glm::dvec3(boxes[t][1]), add); },
-      false);
+      cells, nt, [&](size_t t, auto&& add) { for_cells(glm::dvec3(boxes[t][0]), glm::dvec3(boxes[t][1]), add); });
   // The boxes again in the cells' order, so that a cell's pairs read consecutive memory: read through the
   // triangles' own order, the candidates' boxes were scattered over the whole array (most of this function's time
   // went to those cache misses on meshes of millions of triangles).

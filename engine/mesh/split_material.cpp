@@ -350,8 +350,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
         std::sort(v.begin(), v.end());
         for (int k = 0; k < 2; ++k)
           if (v[size_t(k)] < n_surface) add(v[size_t(k)]);
-      },
-      false);
+      });
   HostArray<uint32_t> wall = filled(n_tets * 4, UINT32_MAX);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tri.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) {
