@@ -70,6 +70,11 @@ std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, c
   return {dihedral_of(*lo), dihedral_of(*hi)};
 }
 
+double min_dihedral(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  const auto x = normal_cosines(a, b, c, d);
+  return dihedral_of(*std::min_element(x.begin(), x.end()));
+}
+
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
   // Circumcentre of the tet: solve 2 (p - a) . x = |p|^2 - |a|^2 relative to a.
   const glm::dvec3 u = b - a, v = c - a, w = d - a;
@@ -510,7 +515,7 @@ size_t count_below_dihedral(const std::vector<glm::dvec3>& P, const std::vector<
       [&](const tbb::blocked_range<size_t>& r, size_t n) {
         for (size_t t = r.begin(); t != r.end(); ++t) {
           const auto& k = tets[t];
-          n += dihedral_range(P[k[0]], P[k[1]], P[k[2]], P[k[3]])[0] < bound;
+          n += min_dihedral(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) < bound;
         }
         return n;
       },

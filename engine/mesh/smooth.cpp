@@ -237,7 +237,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
     return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
   };
-  auto min_angle = [&](const std::array<uint32_t, 4>& t) { return dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]])[0]; };
+  auto min_angle = [&](const std::array<uint32_t, 4>& t) { return min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
   // Every tet's smallest dihedral angle, kept current as vertices move (one parallel pass, then only the tets of a
   // moved vertex).
   std::vector<double> angle(tets.size());
@@ -252,13 +252,16 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   });
   report.min_dihedral_before = report.min_dihedral_after = worst_angle() * 180 / M_PI;
   // The smallest dihedral angle of v's tets with v at its current position, or -1 if one of them is inverted or
-  // over the radius-edge bound `limit`.
-  auto quality_at = [&](uint32_t v, double limit) {
+  // over the radius-edge bound `limit`. A candidate position is kept only if it beats the best so far, `floor`: once
+  // a tet's angle is at most that, the rest need not be looked at, and some value at most `floor` is returned.
+  auto quality_at = [&](uint32_t v, double limit, double floor) {
     double q = M_PI;
     for (uint32_t t : around[v]) {
       const auto& k = tets[t];
-      if (signed_volume(k) * sign[t] <= 0 || radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit) return -1.0;
+      if (signed_volume(k) * sign[t] <= 0) return -1.0;
       q = std::min(q, min_angle(k));
+      if (q <= floor) return q;
+      if (radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit) return -1.0;
     }
     return q;
   };
@@ -293,7 +296,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         if (v < fixed) continue;
         const glm::dvec3 start = P[v];
         const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
-        double best = quality_at(v, limit);
+        double best = quality_at(v, limit, -HUGE_VAL);
         glm::dvec3 best_at = start, centroid(0.0);
         double edge = 0;
         size_t count = 0;
@@ -309,7 +312,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         edge /= double(count);
         auto consider = [&](const glm::dvec3& at) {
           P[v] = at;
-          const double q = quality_at(v, limit);
+          const double q = quality_at(v, limit, best);
           if (q > best) best = q, best_at = at;
         };
         consider(centroid);
@@ -344,7 +347,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
     return glm::dot(b - a, glm::cross(c - a, d - a));
   };
   auto min_angle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-    return dihedral_range(a, b, c, d)[0];
+    return min_dihedral(a, b, c, d);
   };
   auto tet_min_angle = [&](const std::array<uint32_t, 4>& t) { return min_angle(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
   std::vector<uint8_t> below(tets.size());

@@ -661,7 +661,7 @@ TEST_CASE("improve_tets: the same moves as testing every tet in every pass, on a
   }
 }
 
-TEST_CASE("dihedral_range and tet_stats_by_group agree with the angles of each tet") {
+TEST_CASE("dihedral_range, min_dihedral and tet_stats_by_group agree with the angles of each tet") {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<glm::dvec3> P;
@@ -675,6 +675,7 @@ TEST_CASE("dihedral_range and tet_stats_by_group agree with the angles of each t
     const auto r = mesh::dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
     CHECK(r[0] == *std::min_element(a.begin(), a.end()));
     CHECK(r[1] == *std::max_element(a.begin(), a.end()));
+    CHECK(mesh::min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]) == r[0]);
     group[i] = uint16_t(i % 2);  // group 2 stays empty
     by[group[i]].push_back(t);
   }
