@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <map>
-#include <unordered_map>
 #include <stdexcept>
 #include <string>
 
@@ -16,7 +15,6 @@
 #include "host/host_array.h"
 #include "mesh/child_process.h"
 #include "mesh/elements_around.h"
-#include "mesh/face_key.h"
 #include "mesh/quality.h"
 #include "mesh/remesh_slivers.h"
 #include "mesh/split_material.h"
@@ -93,7 +91,7 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
       const auto& k = T.tets[t];
-      const double angle = dihedral_range(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]])[0];
+      const double angle = min_dihedral(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]]);
       part[t] = angle < bound;
       smallest[t] = angle;
     }
@@ -190,20 +188,39 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
 
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
   if (V.region.size() != V.tets.size()) throw std::runtime_error("drop_pockets: TetGen gave no region attributes");
-  std::unordered_map<FaceKey, uint32_t, FaceKeyHash> triangle_of;
-  triangle_of.reserve(boundary.size() * 2);
-  for (uint32_t i = 0; i < boundary.size(); ++i) triangle_of.emplace(FaceKey(boundary[i]), i);
-  std::map<int, long> inside;  // per region: faces with the region inside minus faces with it outside
-  for (size_t t = 0; t < V.tets.size(); ++t)
-    for (int c = 0; c < 4; ++c) {
-      const auto it = triangle_of.find(FaceKey(face_opposite(V.tets[t], c)));
-      if (it == triangle_of.end()) continue;
-      const auto& f = boundary[it->second];
-      const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
-      inside[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
-    }
+  // The boundary triangles under their smallest vertex: a tet's face is looked up among those of its own smallest
+  // (the first that matches, as a hash map keeping the first of equal triangles would).
+  auto smallest = [](const std::array<uint32_t, 3>& f) { return std::min({f[0], f[1], f[2]}); };
+  const Grouped by_vertex = group_by_key(V.points.size(), boundary.size(),
+                                         [&](size_t i, auto&& add) { add(smallest(boundary[i])); });
+  // Per region: faces with the region inside minus faces with it outside (integer sums: any order gives the same).
+  using Votes = std::map<int, long>;
+  const Votes inside = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, V.tets.size(), 4096), Votes(),
+      [&](const tbb::blocked_range<size_t>& r, Votes votes) {
+        for (size_t t = r.begin(); t != r.end(); ++t)
+          for (int c = 0; c < 4; ++c) {
+            const auto face = face_opposite(V.tets[t], c);
+            for (uint32_t i : by_vertex[smallest(face)]) {
+              const auto& f = boundary[i];
+              if (!has_vertex(f, face[0]) || !has_vertex(f, face[1]) || !has_vertex(f, face[2])) continue;
+              const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
+              votes[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
+              break;
+            }
+          }
+        return votes;
+      },
+      [](Votes a, const Votes& b) {
+        for (const auto& [region, n] : b) a[region] += n;
+        return a;
+      });
+  auto kept = [&](int region) {
+    const auto it = inside.find(region);
+    return it != inside.end() && it->second > 0;
+  };
   const size_t before = V.tets.size();
-  if (keep_tets(V.tets, V.region, [&](size_t t) { return inside[V.region[t]] > 0; }) < before)
+  if (keep_tets(V.tets, V.region, [&](size_t t) { return kept(V.region[t]); }) < before)
     remove_unused_points(V.points, V.tets, fixed);
 }
 
