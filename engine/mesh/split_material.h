@@ -4,8 +4,8 @@
 //
 // The pieces lie between cut planes across the material's longest extent, each plane near a quantile of the
 // estimated work (estimated_tets below: the boundary's vertices below it and, less, the volume below it) but moved
-// (by up to a quarter of a piece's share of it) to where the least area of boundary
-// triangles runs nearly parallel to it close by: a separator that meets the boundary at a grazing angle leaves
+// to where the least area of boundary triangles runs nearly parallel to it close by, as far as the pieces keep
+// between 3/4 and `largest` of their share of the work: a separator that meets the boundary at a grazing angle leaves
 // slivers in the wedge between them that no pass mends (the paper-size head in 16 pieces: 83 tets under 12 degrees,
 // from 8.0, with the planes at the quantiles; 2-3, from 11.0, with the planes moved; 0 in one run per material).
 // Each piece is bounded by the material's
@@ -35,6 +35,9 @@
 //          pieces     how many pieces (>= 2): the planes lie near quantiles of the estimated work (halfway between
 //                     two distinct vertex coordinates), so that TetGen makes about as many tets in each piece
 //          first_new  the number the first new point gets (the caller appends MaterialSplit::points there)
+//          largest    the most estimated work a piece may take where a plane moves off grazing boundary, in shares
+//                     (the material's work / pieces; >= 1, else std::invalid_argument): mesh_materials allows a
+//                     little over the largest run of any material, which sets the time of all runs
 // Outputs: MaterialSplit
 #include <array>
 #include <cstdint>
@@ -65,7 +68,10 @@ struct MaterialSplit {
 // the runs among the materials by it.
 double estimated_tets(double vertices, double volume, double mean_edge);
 
+// The default `largest`: the plane-moving room of a material cut on its own.
+constexpr double kLargestPiece = 1.25;
+
 MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& boundary,
-                             int pieces, uint32_t first_new);
+                             int pieces, uint32_t first_new, double largest = kLargestPiece);
 
 }  // namespace cpmesh::mesh

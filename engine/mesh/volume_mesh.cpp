@@ -45,6 +45,10 @@ double boundary_work(size_t triangles, double perimeters, double volume) {
   return estimated_tets(double(triangles) / 2, std::max(0.0, volume), perimeters / double(3 * triangles));
 }
 
+// How far over the largest run by the shares (share_runs) a piece may grow where a plane moves off grazing boundary
+// (split_material's `largest`).
+constexpr double kRunSlack = 1.1;
+
 // The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
 // around a new vertex (never across a face in `kept`), then move again to place the new vertices (smooth.h); then,
 // where `remesh` and slivers are left, mesh the cavities around them afresh (remesh_slivers.h) and move once more.
@@ -354,6 +358,10 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
   }
   const std::vector<int> pieces_of = share_runs(work, boundary_size, runs, options.min_piece_triangles);  // asked for;
                                                                                     // a refused cut leaves one run
+  // The largest run by the shares (the runs' time, where there are as many cores): a plane of any material may move
+  // off grazing boundary as long as its pieces stay within kRunSlack of it.
+  double largest_run = 0;
+  for (size_t j = 0; j < jobs.size(); ++j) largest_run = std::max(largest_run, work[j] / pieces_of[j]);
   // A slot per run asked for: a material's pieces (or the whole material, in its first slot, where the cut is
   // refused), in material order. Each run gets the caller's points and, for a piece, its material's separator points
   // after them (MaterialSplit::first_new = points.size()): the materials are cut and meshed at once, so no run waits
@@ -406,7 +414,8 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
       else if (pair[t][1] == m) outward.push_back({triangles[t][0], triangles[t][2], triangles[t][1]});
     MaterialSplit& split = splits[j];
     try {
-      split = split_material(points, outward, pieces_of[j], uint32_t(points.size()));
+      split = split_material(points, outward, pieces_of[j], uint32_t(points.size()),
+                             kRunSlack * largest_run / (work[j] / pieces_of[j]));
     } catch (const std::exception& e) {
       split = {};
       split.refused = e.what();

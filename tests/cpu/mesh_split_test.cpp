@@ -318,7 +318,7 @@ TEST_CASE("split_material: a plane moves off boundary that runs parallel to it, 
   }
 }
 
-TEST_CASE("split_material: in three pieces both planes move off their cavities, in order, each within its window") {
+TEST_CASE("split_material: in three pieces both planes move off their cavities, in order, each piece within its window") {
   // Cavities at about the thirds of the vertices (the ellipsoid's vertices spread evenly along x over [-15, 15]).
   const Sphere s = ellipsoid_with_flat_cavities({-5.0, 5.2});
   const auto split = mesh::split_material(s.points, s.triangles, 3, uint32_t(s.points.size()));
@@ -326,16 +326,44 @@ TEST_CASE("split_material: in three pieces both planes move off their cavities, 
   REQUIRE(split.refused.empty());
   REQUIRE(split.planes.size() == 2);
   CHECK(split.planes[0] < split.planes[1]);
-  const double edge = mean_edge(s);
+  const double edge = mean_edge(s), total = work_below(s, 1e9);
   for (int j = 0; j < 2; ++j) {
     CAPTURE(j);
     CHECK(grazing_distance(s, split.planes[size_t(j)]) > 2.5 * edge);
-    // Plane j + 1 at the work quantile (j + 1) / 3, give or take a quarter of a piece's share (1/12).
-    const double share = work_below(s, split.planes[size_t(j)]) / work_below(s, 1e9);
-    CHECK(share * 12 >= double(4 * (j + 1) - 1) - 0.02);
-    CHECK(share * 12 <= double(4 * (j + 1) + 1) + 0.02);
+  }
+  // Every piece keeps 3/4 to 5/4 of its share (a third of the work; kLargestPiece), the last one too.
+  const std::vector<double> at = {-1e9, split.planes[0], split.planes[1], 1e9};
+  for (size_t p = 0; p < 3; ++p) {
+    CAPTURE(p);
+    const double shares = 3 * (work_below(s, at[p + 1]) - work_below(s, at[p])) / total;
+    CHECK(shares >= 0.75 - 0.01);
+    CHECK(shares <= mesh::kLargestPiece + 0.01);
   }
   check_pieces(s, split);
+}
+
+TEST_CASE("split_material: `largest` bounds a piece's work where its plane moves off grazing boundary") {
+  // The cavity just above the middle: the nearest place clear of it lies below, where the upper piece would take
+  // about 1.1 shares. Allowed 1.2 shares, the plane goes there; allowed 1.04, both pieces stay within 1.04 shares
+  // and the plane keeps grazing the cavity (no place clear of it lies that near the middle).
+  const Sphere s = ellipsoid_with_flat_cavities({0.3});
+  const double total = work_below(s, 1e9), edge = mean_edge(s);
+  auto upper_shares = [&](double plane) { return 2 * (total - work_below(s, plane)) / total; };
+  const auto free = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()), 1.2);
+  REQUIRE(free.refused.empty());
+  CHECK(grazing_distance(s, free.planes[0]) > 2.5 * edge);
+  CHECK(upper_shares(free.planes[0]) > 1.04);
+  CHECK(upper_shares(free.planes[0]) <= 1.2 + 0.01);
+  const auto tight = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()), 1.04);
+  REQUIRE(tight.refused.empty());
+  MESSAGE("upper piece: " << upper_shares(free.planes[0]) << " shares allowed 1.2, " << upper_shares(tight.planes[0])
+                          << " allowed 1.04");
+  CHECK(upper_shares(tight.planes[0]) <= 1.04 + 0.01);
+  CHECK(upper_shares(tight.planes[0]) >= 0.96 - 0.01);
+  CHECK(grazing_distance(s, tight.planes[0]) < 2.5 * edge);
+  check_pieces(s, free);
+  check_pieces(s, tight);
+  CHECK_THROWS_AS(mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()), 0.9), std::invalid_argument);
 }
 
 TEST_CASE("material_work: each material's estimated tets from its boundary, the volume signed by the normals") {
