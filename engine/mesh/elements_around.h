@@ -51,12 +51,19 @@ bool has_vertex(const std::array<uint32_t, N>& e, uint32_t v) {
   return std::find(e.begin(), e.end(), v) != e.end();
 }
 
-// Whether triangle f (any vertex order) is one of `triangles`, looked up among those around its first vertex.
+// The first of `triangles` that is triangle f (any vertex order), looked up among those around its first vertex;
+// UINT32_MAX where none is.
+inline uint32_t find_triangle(const ElementsAround<3>& around, const std::vector<std::array<uint32_t, 3>>& triangles,
+                              const std::array<uint32_t, 3>& f) {
+  for (uint32_t k : around[f[0]])
+    if (has_vertex(triangles[k], f[1]) && has_vertex(triangles[k], f[2])) return k;
+  return UINT32_MAX;
+}
+
+// Whether triangle f (any vertex order) is one of `triangles`.
 inline bool has_triangle(const ElementsAround<3>& around, const std::vector<std::array<uint32_t, 3>>& triangles,
                          const std::array<uint32_t, 3>& f) {
-  for (uint32_t k : around[f[0]])
-    if (has_vertex(triangles[k], f[1]) && has_vertex(triangles[k], f[2])) return true;
-  return false;
+  return find_triangle(around, triangles, f) != UINT32_MAX;
 }
 
 // The face of tet t opposite its vertex i (the other three, in order).

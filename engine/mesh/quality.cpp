@@ -513,10 +513,7 @@ size_t count_below_dihedral(const std::vector<glm::dvec3>& P, const std::vector<
   return tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, tets.size()), size_t(0),
       [&](const tbb::blocked_range<size_t>& r, size_t n) {
-        for (size_t t = r.begin(); t != r.end(); ++t) {
-          const auto& k = tets[t];
-          n += min_dihedral(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) < bound;
-        }
+        for (size_t t = r.begin(); t != r.end(); ++t) n += min_dihedral(P, tets[t]) < bound;
         return n;
       },
       std::plus<>());

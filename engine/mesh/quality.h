@@ -25,6 +25,10 @@ std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, 
 std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 // The smallest alone (the same value), with one arc cosine: what the sliver passes test, millions of times.
 double min_dihedral(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
+// The same of tet t over points P.
+inline double min_dihedral(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
+  return min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+}
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 // The volume of tet abcd (unsigned).
 inline double tet_volume(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {

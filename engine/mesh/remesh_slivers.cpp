@@ -22,10 +22,6 @@ namespace {
 
 constexpr uint32_t kNone = UINT32_MAX;
 
-double min_dihedral(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
-  return mesh::min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
-}
-
 struct Cavity {
   std::vector<uint32_t> tets;
   std::vector<std::array<uint32_t, 3>> boundary;

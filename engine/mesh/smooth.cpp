@@ -237,12 +237,11 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
     return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
   };
-  auto min_angle = [&](const std::array<uint32_t, 4>& t) { return min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
   // Every tet's smallest dihedral angle, kept current as vertices move (one parallel pass, then only the tets of a
   // moved vertex).
   std::vector<double> angle(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t != r.end(); ++t) angle[t] = min_angle(tets[t]);
+    for (size_t t = r.begin(); t != r.end(); ++t) angle[t] = min_dihedral(P, tets[t]);
   });
   auto worst_angle = [&] { return angle.empty() ? M_PI : *std::min_element(angle.begin(), angle.end()); };
   const ElementsAround<4> around(P.size(), tets);
@@ -259,7 +258,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     for (uint32_t t : around[v]) {
       const auto& k = tets[t];
       if (signed_volume(k) * sign[t] <= 0) return -1.0;
-      q = std::min(q, min_angle(k));
+      q = std::min(q, min_dihedral(P, k));
       if (q <= floor) return q;
       if (radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit) return -1.0;
     }
@@ -322,7 +321,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         if (best_at == start) continue;
         ++moves;
         for (uint32_t u : around[v]) {
-          angle[u] = min_angle(tets[u]);
+          angle[u] = min_dihedral(P, tets[u]);
           if (u > t) {
             queue.push_back(u);
             std::push_heap(queue.begin(), queue.end(), std::greater<>());
@@ -346,13 +345,9 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   auto orient = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
     return glm::dot(b - a, glm::cross(c - a, d - a));
   };
-  auto min_angle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-    return min_dihedral(a, b, c, d);
-  };
-  auto tet_min_angle = [&](const std::array<uint32_t, 4>& t) { return min_angle(P[t[0]], P[t[1]], P[t[2]], P[t[3]]); };
   std::vector<uint8_t> below(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t != r.end(); ++t) below[t] = tet_min_angle(tets[t]) < target;
+    for (size_t t = r.begin(); t != r.end(); ++t) below[t] = min_dihedral(P, tets[t]) < target;
   });
   std::vector<uint32_t> bad;
   for (uint32_t t = 0; t < tets.size(); ++t)
@@ -441,7 +436,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
         double old_worst = M_PI, old_ratio = 0;
         for (uint32_t r : ring_tets) {
           const auto& q = tets[r];
-          old_worst = std::min(old_worst, tet_min_angle(q));
+          old_worst = std::min(old_worst, min_dihedral(P, q));
           old_ratio = std::max(old_ratio, radius_edge_ratio(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
         }
         const double limit = std::max(1.5 * max_radius_edge, old_ratio);
@@ -461,7 +456,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
                 ok = false;
                 break;
               }
-              worst = std::min(worst, tet_min_angle(q));
+              worst = std::min(worst, min_dihedral(P, q));
               made.push_back(q);
             }
           }
@@ -483,7 +478,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
   std::mt19937 rng(54321);
   std::normal_distribution<double> n01;
   for (uint32_t start : bad) {
-    if (tets[start][0] == dead || tet_min_angle(tets[start]) >= target) continue;  // replaced or fixed meanwhile
+    if (tets[start][0] == dead || min_dihedral(P, tets[start]) >= target) continue;  // replaced or fixed meanwhile
     const bool positive = orient(P[tets[start][0]], P[tets[start][1]], P[tets[start][2]], P[tets[start][3]]) > 0;
     if (remove_edges && remove_edge(start)) {
       ++report.flips;
@@ -516,7 +511,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
       glm::dvec3 centroid(0.0);
       for (uint32_t t : cavity) {
         const auto& k = tets[t];
-        old_worst = std::min(old_worst, tet_min_angle(k));
+        old_worst = std::min(old_worst, min_dihedral(P, k));
         old_ratio = std::max(old_ratio, radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]));
         volume += std::fabs(orient(P[k[0]], P[k[1]], P[k[2]], P[k[3]]));
         for (uint32_t v : k) cavity_vertices.insert(v);
@@ -544,7 +539,7 @@ SliverSplitReport split_slivers(std::vector<glm::dvec3>& P, std::vector<std::arr
           const glm::dvec3 &a = P[b.f[0]], &c = P[b.f[1]], &d = P[b.f[2]];
           if (orient(a, c, d, x) * b.sign <= 1e-12 * edge * edge * edge) return -1.0;
           if (radius_edge_ratio(a, c, d, x) > limit) return -1.0;
-          q = std::min(q, min_angle(a, c, d, x));
+          q = std::min(q, min_dihedral(a, c, d, x));
         }
         return q;
       };

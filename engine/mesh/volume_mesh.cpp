@@ -94,8 +94,7 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
   HostArray<double> smallest(n_tets);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n_tets, size_t(1) << 14), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) {
-      const auto& k = T.tets[t];
-      const double angle = min_dihedral(T.points[k[0]], T.points[k[1]], T.points[k[2]], T.points[k[3]]);
+      const double angle = min_dihedral(T.points, T.tets[t]);
       part[t] = angle < bound;
       smallest[t] = angle;
     }
@@ -192,11 +191,9 @@ bool seam_passes(Tets& T, size_t fixed, const std::vector<std::array<uint32_t, 3
 
 void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary, size_t fixed) {
   if (V.region.size() != V.tets.size()) throw std::runtime_error("drop_pockets: TetGen gave no region attributes");
-  // The boundary triangles under their smallest vertex: a tet's face is looked up among those of its own smallest
-  // (the first that matches, as a hash map keeping the first of equal triangles would).
-  auto smallest = [](const std::array<uint32_t, 3>& f) { return std::min({f[0], f[1], f[2]}); };
-  const Grouped by_vertex = group_by_key(V.points.size(), boundary.size(),
-                                         [&](size_t i, auto&& add) { add(smallest(boundary[i])); });
+  // The boundary triangles around each vertex: a tet's face is the first boundary triangle it matches (as a hash
+  // map keeping the first of equal triangles would).
+  const ElementsAround<3> around(V.points.size(), boundary);
   // Per region: faces with the region inside minus faces with it outside (integer sums: any order gives the same).
   using Votes = std::map<int, long>;
   const Votes inside = tbb::parallel_reduce(
@@ -204,14 +201,11 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
       [&](const tbb::blocked_range<size_t>& r, Votes votes) {
         for (size_t t = r.begin(); t != r.end(); ++t)
           for (int c = 0; c < 4; ++c) {
-            const auto face = face_opposite(V.tets[t], c);
-            for (uint32_t i : by_vertex[smallest(face)]) {
-              const auto& f = boundary[i];
-              if (!has_vertex(f, face[0]) || !has_vertex(f, face[1]) || !has_vertex(f, face[2])) continue;
-              const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
-              votes[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
-              break;
-            }
+            const uint32_t i = find_triangle(around, boundary, face_opposite(V.tets[t], c));
+            if (i == UINT32_MAX) continue;
+            const auto& f = boundary[i];
+            const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
+            votes[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
           }
         return votes;
       },
