@@ -66,7 +66,7 @@ struct QualityOptions {
   // 16 pieces: 2-3 tets under 12 degrees, from 11.0, against none whole), so many-core hosts should ask for them.
   size_t runs = 1;
   size_t min_piece_triangles = 20'000;  // a material is cut only into pieces of at least this many boundary triangles
-                                        // on average (a piece between two moved planes may keep half its share)
+                                        // on average (a piece whose plane moved keeps at least 3/4 of its share)
 };
 
 struct Region {
