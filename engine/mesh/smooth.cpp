@@ -250,12 +250,14 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     for (size_t t = r.begin(); t != r.end(); ++t) sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
   });
   report.min_dihedral_before = report.min_dihedral_after = worst_angle() * 180 / M_PI;
-  // The smallest dihedral angle of v's tets with v at its current position, or -1 if one of them is inverted or
-  // over the radius-edge bound `limit`. A candidate position is kept only if it beats the best so far, `floor`: once
-  // a tet's angle is at most that, the rest need not be looked at, and some value at most `floor` is returned.
-  auto quality_at = [&](uint32_t v, double limit, double floor) {
+  // The smallest dihedral angle of v's tets (`mine`: all of them, in any order) with v at its current position, or -1
+  // if one of them is inverted or over the radius-edge bound `limit`. A candidate position is kept only if it beats
+  // the best so far, `floor`: once a tet's angle is at most that, the rest need not be looked at, and some value at
+  // most `floor` is returned. So a kept candidate's value does not depend on the order, and the worst tet first ends
+  // most of the others early.
+  auto quality_at = [&](const std::vector<uint32_t>& mine, double limit, double floor) {
     double q = M_PI;
-    for (uint32_t t : around[v]) {
+    for (uint32_t t : mine) {
       const auto& k = tets[t];
       if (signed_volume(k) * sign[t] <= 0) return -1.0;
       q = std::min(q, min_dihedral(P, k));
@@ -275,6 +277,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   };
   std::mt19937 rng(12345);
   std::normal_distribution<double> n01;
+  std::vector<uint32_t> mine;
   for (int pass = 0; pass < passes; ++pass) {
     size_t moves = 0;
     // The tets in index order, each tested when reached: those below the target when the pass starts, and those of
@@ -295,7 +298,11 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         if (v < fixed) continue;
         const glm::dvec3 start = P[v];
         const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
-        double best = quality_at(v, limit, -HUGE_VAL);
+        // v's tets, the smallest angle first (the candidates are near v: its worst tet is likely theirs).
+        mine.assign(around[v].begin(), around[v].end());
+        auto key = [&](uint32_t u) { return std::isnan(angle[u]) ? -HUGE_VAL : angle[u]; };  // NaN first, ordered
+        std::sort(mine.begin(), mine.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
+        double best = quality_at(mine, limit, -HUGE_VAL);
         glm::dvec3 best_at = start, centroid(0.0);
         double edge = 0;
         size_t count = 0;
@@ -311,7 +318,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         edge /= double(count);
         auto consider = [&](const glm::dvec3& at) {
           P[v] = at;
-          const double q = quality_at(v, limit, best);
+          const double q = quality_at(mine, limit, best);
           if (q > best) best = q, best_at = at;
         };
         consider(centroid);
