@@ -237,7 +237,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // work (share: all of it / pieces), the one nearest the target among equals. So no piece takes more than `largest`
   // shares however the planes move (the largest piece sets the runs' time: with each plane free to move by a quarter
   // of a share either way around its own quantile, the paper-size head's largest piece in 16 runs was estimated at
-  // 1.36 times their mean, now 1.22; the 160^3 phantom's took 1.37 times the mean tets, now 1.21).
+  // 1.36 times their mean, now 1.17; the 160^3 phantom's took 1.37 times the mean tets, now 1.16).
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   tbb::parallel_sort(along.begin(), along.end());
