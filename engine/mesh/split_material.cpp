@@ -234,10 +234,11 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   // their centroids within kGrazeBand mean edge lengths of the plane. The planes are placed from below, each at the
   // place that shares the work above the last one evenly among the pieces left (its target), or, where something
   // grazes there, at the least grazing place whose pieces keep between 1 - kPlaneSlack and `largest` shares of the
-  // work (share: all of it / pieces), the one nearest the target among equals. So no piece takes more than `largest`
-  // shares however the planes move (the largest piece sets the runs' time: with each plane free to move by a quarter
-  // of a share either way around its own quantile, the paper-size head's largest piece in 16 runs was estimated at
-  // 1.36 times their mean, now 1.17; the 160^3 phantom's took 1.37 times the mean tets, now 1.16).
+  // work (share: all of it / pieces), the one nearest the target among equals. So no plane's move gives a piece more
+  // than `largest` shares or less than 1 - kPlaneSlack (a plane that stays at its target is off the even share by up
+  // to one step between candidates). The largest piece sets the runs' time: with each plane free to move by a
+  // quarter of a share either way around its own quantile, the paper-size head's largest piece in 16 runs was
+  // estimated at 1.36 times their mean, now 1.17; the 160^3 phantom's took 1.37 times the mean tets, now 1.16.
   std::vector<double> along(n_surface);
   for (size_t v = 0; v < n_surface; ++v) along[v] = P[v][axis];
   tbb::parallel_sort(along.begin(), along.end());
@@ -305,8 +306,11 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     const double above = double(pieces - j);  // pieces above this plane
     const double target = below + (work_total - below) / (above + 1);  // the rest shared evenly
     const size_t q = quantile(target);
-    const size_t from = quantile(std::max(below + least, work_total - above * most));
-    const size_t to = quantile(std::min(below + most, work_total - above * least));
+    // The window: the candidates with from lo_work to hi_work below them (quantile gives the first at or above a
+    // work, so the scan stops before one past hi_work).
+    const double lo_work = std::max(below + least, work_total - above * most);
+    const double hi_work = std::min(below + most, work_total - above * least);
+    const size_t from = quantile(lo_work), to = quantile(hi_work);
     const std::optional<double> middle = candidate(q);
     if (!middle) return refuse("too few distinct vertex coordinates along the cut axis");
     const double floor = out.planes.empty() ? -std::numeric_limits<double>::infinity() : out.planes.back();
@@ -315,7 +319,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     for (size_t i = from; move && i <= to && i < n_surface; ++i) {
       if (i > from && along[i] == along[i - 1]) continue;
       const std::optional<double> c = candidate(i);
-      if (!c) break;
+      if (!c || work_below(*c) > hi_work) break;
       if (*c <= floor) continue;
       const double g = grazed(*c);
       if (g < best_graze || (g == best_graze && std::fabs(*c - *middle) < std::fabs(best - *middle))) {

@@ -49,6 +49,10 @@ double boundary_work(size_t triangles, double perimeters, double volume) {
 // (split_material's `largest`). head:160 at --max-size 0.5 in 16 runs: largest piece 1.21 times the mean tets and 29
 // tets left under 12 degrees at 1.1; 1.16 and 22 at 1.05 (24 with the old free moves, at 1.37).
 constexpr double kRunSlack = 1.05;
+// And never more than this many of its own material's shares: the room the planes' old free moves gave (a quarter of
+// a share either way at both ends), which also bounds each plane's search (a material far below the largest run
+// would otherwise scan nearly all its vertices for every plane).
+constexpr double kMostShares = 1.5;
 
 // The sliver passes over tets V: move the free vertices (index >= fixed), then refill the slivers among kept vertices
 // around a new vertex (never across a face in `kept`), then move again to place the new vertices (smooth.h); then,
@@ -410,7 +414,7 @@ MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::
     MaterialSplit& split = splits[j];
     try {
       split = split_material(points, outward, pieces_of[j], uint32_t(points.size()),
-                             kRunSlack * largest_run / (work[j] / pieces_of[j]));
+                             std::min(kMostShares, kRunSlack * largest_run / (work[j] / pieces_of[j])));
     } catch (const std::exception& e) {
       split = {};
       split.refused = e.what();

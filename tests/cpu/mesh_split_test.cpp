@@ -366,6 +366,22 @@ TEST_CASE("split_material: `largest` bounds a piece's work where its plane moves
   CHECK_THROWS_AS(mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()), 0.9), std::invalid_argument);
 }
 
+TEST_CASE("split_material: a moved plane stays within `largest` where the candidates lie far apart") {
+  // The vertices' x on a grid of 0.25 (a voxel surface's layers, each about a tenth of a share): the window's last
+  // candidate must not be the first one past `largest` (it was, at 1.110 shares).
+  Sphere s = ellipsoid_with_flat_cavities({-0.3});
+  for (auto& p : s.points) p.x = std::round(p.x * 4) / 4;
+  const double total = work_below(s, 1e9);
+  const auto split = mesh::split_material(s.points, s.triangles, 2, uint32_t(s.points.size()), 1.1);
+  INFO(split.refused);
+  REQUIRE(split.refused.empty());
+  const double lower = 2 * work_below(s, split.planes[0]) / total;
+  MESSAGE("lower piece " << lower << " shares, upper " << 2 - lower);
+  CHECK(lower <= 1.1 + 1e-9);
+  CHECK(2 - lower <= 1.1 + 1e-9);
+  check_pieces(s, split);
+}
+
 TEST_CASE("material_work: each material's estimated tets from its boundary, the volume signed by the normals") {
   // Material 1 the shell between spheres of radius 10 and 4, material 2 the ball inside, material 0 outside (its
   // boundary encloses it from outside: a negative volume, counted as none); no triangle bounds material 3.
