@@ -306,8 +306,8 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     const double above = double(pieces - j);  // pieces above this plane
     const double target = below + (work_total - below) / (above + 1);  // the rest shared evenly
     const size_t q = quantile(target);
-    // The window: the candidates with from lo_work to hi_work below them (quantile gives the first at or above a
-    // work, so the scan stops before one past hi_work).
+    // The window: the candidates with lo_work to hi_work of work below them. quantile() gives the first candidate at
+    // or above a work, so `to` may lie just past hi_work: the scan stops before such a candidate.
     const double lo_work = std::max(below + least, work_total - above * most);
     const double hi_work = std::min(below + most, work_total - above * least);
     const size_t from = quantile(lo_work), to = quantile(hi_work);

@@ -46,8 +46,9 @@ double boundary_work(size_t triangles, double perimeters, double volume) {
 }
 
 // How far over the largest run by the shares (share_runs) a piece may grow where a plane moves off grazing boundary
-// (split_material's `largest`). head:160 at --max-size 0.5 in 16 runs: largest piece 1.21 times the mean tets and 29
-// tets left under 12 degrees at 1.1; 1.16 and 22 at 1.05 (24 with the old free moves, at 1.37).
+// (split_material's `largest`). head:160 at --max-size 0.5 in 16 runs (one run each, so the sliver counts are a
+// sample): largest piece 1.37 times the mean tets and 24 tets under 12 degrees with the old free moves; 1.21 and 29
+// at 1.1; 1.16 and 22-32 at 1.05 (before and after the window's end was mended).
 constexpr double kRunSlack = 1.05;
 // And never more than this many of its own material's shares: the room the planes' old free moves gave (a quarter of
 // a share either way at both ends), which also bounds each plane's search (a material far below the largest run
