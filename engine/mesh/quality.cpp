@@ -31,58 +31,118 @@ double radius_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& 
 
 namespace {
 
+// The outward normals of the faces opposite corners 0..3, not normalized.
+std::array<glm::dvec3, 4> outward_normals(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
+                                          const glm::dvec3& d) {
+  // Pointers, not copies: copying the corners into a local array stalled the loads that followed (store forwarding).
+  const glm::dvec3* p[4] = {&a, &b, &c, &d};
+  std::array<glm::dvec3, 4> n;
+  for (int k = 0; k < 4; ++k) {
+    const glm::dvec3 &pi = *p[(k + 1) % 4], &pj = *p[(k + 2) % 4], &pk = *p[k], &pl = *p[(k + 3) % 4];
+    n[size_t(k)] = glm::cross(pj - pi, pl - pi);
+    if (glm::dot(n[size_t(k)], pk - pi) > 0) n[size_t(k)] = -n[size_t(k)];
+  }
+  return n;
+}
+
 // Per edge (i, j), in the order (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the other two corners k < l: the cosine of the
-// angle between the outward normals of the faces opposite k and l, clamped to [-1, 1]. The dihedral angle at the
+// angle between the outward normals n of the faces opposite k and l, clamped to [-1, 1]. The dihedral angle at the
 // edge is pi - acos of it, which grows with it.
-std::array<double, 6> normal_cosines(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-  const glm::dvec3 p[4] = {a, b, c, d};
-  // Outward normal of the face opposite corner k.
-  auto normal = [&](int k) {
-    const int i = (k + 1) % 4, j = (k + 2) % 4, l = (k + 3) % 4;
-    glm::dvec3 n = glm::cross(p[j] - p[i], p[l] - p[i]);
-    if (glm::dot(n, p[k] - p[i]) > 0) n = -n;
-    const double len = glm::length(n);
-    return len > 0 ? n / len : n;
-  };
-  glm::dvec3 n[4];
-  for (int k = 0; k < 4; ++k) n[k] = normal(k);
+std::array<double, 6> normal_cosines(std::array<glm::dvec3, 4> n) {
+  for (glm::dvec3& x : n) {
+    const double len = glm::length(x);
+    if (len > 0) x = x / len;
+  }
   std::array<double, 6> out;
   int e = 0;
-  for (int k = 0; k < 4; ++k)
-    for (int l = k + 1; l < 4; ++l) out[size_t(e++)] = std::clamp(glm::dot(n[k], n[l]), -1.0, 1.0);
+  for (size_t k = 0; k < 4; ++k)
+    for (size_t l = k + 1; l < 4; ++l) out[size_t(e++)] = std::clamp(glm::dot(n[k], n[l]), -1.0, 1.0);
   return out;
 }
 
-double dihedral_of(double cosine) { return M_PI - std::acos(cosine); }
+std::array<double, 6> normal_cosines(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  return normal_cosines(outward_normals(a, b, c, d));
+}
+
+// The certain answers below leave this much room for the rounding of the exact computation (which is good to about
+// 1e-15): where a test falls inside it, the exact value decides.
+constexpr double kCertainMargin = 1e-9;
+
+// The circumcentre of the tet a, a + u, a + v, a + w relative to a, given det = u . (v x w); meaningless where
+// |det| < 1e-300 (radius_edge_ratio is infinite there).
+glm::dvec3 circumcentre_from_a(const glm::dvec3& u, const glm::dvec3& v, const glm::dvec3& w, double det) {
+  // Solve 2 (p - a) . x = |p|^2 - |a|^2 relative to a.
+  return (glm::dot(u, u) * glm::cross(v, w) + glm::dot(v, v) * glm::cross(w, u) + glm::dot(w, w) * glm::cross(u, v)) /
+         (2 * det);
+}
 
 }  // namespace
 
 std::array<double, 6> dihedral_angles(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
   // The dihedral angle at edge (i, j) is between the faces opposite the other two corners k, l: pi - angle(n_k, n_l).
   std::array<double, 6> out = normal_cosines(a, b, c, d);
-  for (double& x : out) x = dihedral_of(x);
+  for (double& x : out) x = dihedral_from_cosine(x);
   return out;
 }
 
 std::array<double, 2> dihedral_range(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
   const auto x = normal_cosines(a, b, c, d);
   const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
-  return {dihedral_of(*lo), dihedral_of(*hi)};
+  return {dihedral_from_cosine(*lo), dihedral_from_cosine(*hi)};
+}
+
+double min_dihedral_cosine(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  const auto x = normal_cosines(a, b, c, d);
+  return *std::min_element(x.begin(), x.end());
+}
+
+double min_dihedral_cosine_unless_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
+                                        const glm::dvec3& d, double bound) {
+  const auto n = outward_normals(a, b, c, d);
+  // Every cosine D / sqrt(S) (D = n_k . n_l, S = |n_k|^2 |n_l|^2) above t = bound + margin, tested squared: for
+  // t < 0, D >= 0 or D^2 < t^2 S; for t >= 0, D > 0 and D^2 > t^2 S. A NaN fails every test.
+  const double t = bound + kCertainMargin;
+  if (t < 1) {
+    const double s[4] = {glm::dot(n[0], n[0]), glm::dot(n[1], n[1]), glm::dot(n[2], n[2]), glm::dot(n[3], n[3])};
+    bool above = true;
+    for (size_t k = 0; k < 4 && above; ++k)
+      for (size_t l = k + 1; l < 4 && above; ++l) {
+        const double D = glm::dot(n[k], n[l]), T = t * t * (s[k] * s[l]);
+        above = t < 0 ? (D >= 0 || D * D < T) : (D > 0 && D * D > T);
+      }
+    if (above) return HUGE_VAL;
+  }
+  const auto x = normal_cosines(n);
+  return *std::min_element(x.begin(), x.end());
 }
 
 double min_dihedral(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-  const auto x = normal_cosines(a, b, c, d);
-  return dihedral_of(*std::min_element(x.begin(), x.end()));
+  return dihedral_from_cosine(min_dihedral_cosine(a, b, c, d));
 }
 
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-  // Circumcentre of the tet: solve 2 (p - a) . x = |p|^2 - |a|^2 relative to a.
   const glm::dvec3 u = b - a, v = c - a, w = d - a;
   const double det = glm::dot(u, glm::cross(v, w));
   if (std::fabs(det) < 1e-300) return std::numeric_limits<double>::infinity();
-  const glm::dvec3 x = (glm::dot(u, u) * glm::cross(v, w) + glm::dot(v, v) * glm::cross(w, u) + glm::dot(w, w) * glm::cross(u, v)) / (2 * det);
+  const glm::dvec3 x = circumcentre_from_a(u, v, w, det);
   const double shortest = std::min({glm::length(u), glm::length(v), glm::length(w), glm::length(c - b), glm::length(d - b), glm::length(d - c)});
   return glm::length(x) / shortest;
+}
+
+bool radius_edge_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
+                       double limit) {
+  const glm::dvec3 u = b - a, v = c - a, w = d - a;
+  const double det = glm::dot(u, glm::cross(v, w));
+  if (std::fabs(det) >= 1e-300) {
+    // Squared: |x|^2 against limit^2 times the shortest edge's square. A NaN fails both tests.
+    const glm::dvec3 x = circumcentre_from_a(u, v, w, det);
+    const double r2 = glm::dot(x, x);
+    const double bound = limit * limit * std::min({glm::dot(u, u), glm::dot(v, v), glm::dot(w, w), glm::dot(c - b, c - b),
+                                                   glm::dot(d - b, d - b), glm::dot(d - c, d - c)});
+    if (r2 < bound * (1 - kCertainMargin)) return false;
+    if (r2 > bound * (1 + kCertainMargin)) return true;
+  }
+  return radius_edge_ratio(a, b, c, d) > limit;
 }
 
 TriangleSums& TriangleSums::operator+=(const TriangleSums& o) {

@@ -237,33 +237,49 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
     return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
   };
-  // Every tet's smallest dihedral angle, kept current as vertices move (one parallel pass, then only the tets of a
-  // moved vertex).
-  std::vector<double> angle(tets.size());
+  // Every tet's smallest dihedral angle as its cosine (min_dihedral_cosine: the same order, no arc cosine), kept
+  // current as vertices move (one parallel pass, then only the tets of a moved vertex).
+  std::vector<double> cosine(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t != r.end(); ++t) angle[t] = min_dihedral(P, tets[t]);
+    for (size_t t = r.begin(); t != r.end(); ++t) cosine[t] = min_dihedral_cosine(P, tets[t]);
   });
-  auto worst_angle = [&] { return angle.empty() ? M_PI : *std::min_element(angle.begin(), angle.end()); };
+  // Whether tet t is below the target: by its cosine where that is clear, else by the angle.
+  const double target_cosine = std::cos(M_PI - target);
+  auto below = [&](uint32_t t) {
+    if (cosine[t] < target_cosine - 1e-9) return true;
+    if (cosine[t] > target_cosine + 1e-9) return false;
+    return dihedral_from_cosine(cosine[t]) < target;
+  };
+  auto worst_angle = [&] {
+    return cosine.empty() ? M_PI : dihedral_from_cosine(*std::min_element(cosine.begin(), cosine.end()));
+  };
   const ElementsAround<4> around(P.size(), tets);
   std::vector<int8_t> sign(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
   });
   report.min_dihedral_before = report.min_dihedral_after = worst_angle() * 180 / M_PI;
-  // The smallest dihedral angle of v's tets (`mine`: all of them, in any order) with v at its current position, or -1
-  // if one of them is inverted or over the radius-edge bound `limit`. A candidate position is kept only if it beats
-  // the best so far, `floor`: once a tet's angle is at most that, the rest need not be looked at, and some value at
-  // most `floor` is returned. So a kept candidate's value does not depend on the order, and the worst tet first ends
-  // most of the others early.
-  auto quality_at = [&](const std::vector<uint32_t>& mine, double limit, double floor) {
-    double q = M_PI;
-    for (uint32_t t : mine) {
-      const auto& k = tets[t];
-      if (signed_volume(k) * sign[t] <= 0) return -1.0;
-      q = std::min(q, min_dihedral(P, k));
-      if (q <= floor) return q;
-      if (radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit) return -1.0;
+  // The smallest dihedral angle of v's tets (`mine`: all of them, in any order) with v at its current position, as
+  // its cosine, or -2 (below every cosine) if one of them is inverted or over the radius-edge bound `limit`. A
+  // candidate position is kept only if it beats the best so far, `floor`: once a tet's cosine is at most that, the
+  // rest need not be looked at, and some value at most `floor` is returned. So a kept candidate's value does not
+  // depend on the order. The tet that ended the test, or the worst one, goes first for the next candidate: it most
+  // often ends that one too, and a low minimum early lets the other tets be passed over as certainly above it.
+  auto quality_at = [&](std::vector<uint32_t>& mine, double limit, double floor) {
+    double q = 1.0;
+    size_t worst = 0;
+    for (size_t i = 0; i < mine.size(); ++i) {
+      const auto& k = tets[mine[i]];
+      if (signed_volume(k) * sign[mine[i]] <= 0) return -2.0;
+      const double c = min_dihedral_cosine_unless_above(P[k[0]], P[k[1]], P[k[2]], P[k[3]], q);
+      if (c < q) q = c, worst = i;
+      if (q <= floor) {
+        std::swap(mine[0], mine[i]);
+        return q;
+      }
+      if (radius_edge_above(P[k[0]], P[k[1]], P[k[2]], P[k[3]], limit)) return -2.0;
     }
+    std::swap(mine[0], mine[worst]);
     return q;
   };
   // The largest radius-edge ratio among v's tets.
@@ -285,7 +301,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     // any thread count.
     std::vector<uint32_t> queue;
     for (uint32_t t = 0; t < tets.size(); ++t)
-      if (angle[t] < target) queue.push_back(t);  // ascending: already a heap
+      if (below(t)) queue.push_back(t);  // ascending: already a heap
     uint32_t last = UINT32_MAX;
     while (!queue.empty()) {
       std::pop_heap(queue.begin(), queue.end(), std::greater<>());
@@ -293,14 +309,14 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
       queue.pop_back();
       if (t == last) continue;
       last = t;
-      if (angle[t] >= target) continue;
+      if (!below(t)) continue;
       for (uint32_t v : tets[t]) {
         if (v < fixed) continue;
         const glm::dvec3 start = P[v];
         const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
         // v's tets, the smallest angle first (the candidates are near v: its worst tet is likely theirs).
         mine.assign(around[v].begin(), around[v].end());
-        auto key = [&](uint32_t u) { return std::isnan(angle[u]) ? -HUGE_VAL : angle[u]; };  // NaN first, ordered
+        auto key = [&](uint32_t u) { return std::isnan(cosine[u]) ? -HUGE_VAL : cosine[u]; };  // NaN first, ordered
         std::sort(mine.begin(), mine.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
         double best = quality_at(mine, limit, -HUGE_VAL);
         glm::dvec3 best_at = start, centroid(0.0);
@@ -328,7 +344,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         if (best_at == start) continue;
         ++moves;
         for (uint32_t u : around[v]) {
-          angle[u] = min_dihedral(P, tets[u]);
+          cosine[u] = min_dihedral_cosine(P, tets[u]);
           if (u > t) {
             queue.push_back(u);
             std::push_heap(queue.begin(), queue.end(), std::greater<>());

@@ -576,13 +576,14 @@ mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std:
     sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
   }
   report.min_dihedral_before = worst();
+  // The smallest angle of v's tets as its cosine (what the library compares), -2 where one is inverted or too long.
   auto quality_at = [&](uint32_t v, double limit) {
-    double q = M_PI;
+    double q = 1.0;
     for (uint32_t t : around[v]) {
       const auto& k = tets[t];
       if (signed_volume(k) * sign[t] <= 0 || mesh::radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit)
-        return -1.0;
-      q = std::min(q, min_angle(k));
+        return -2.0;
+      q = std::min(q, mesh::min_dihedral_cosine(P, k));
     }
     return q;
   };
@@ -706,6 +707,51 @@ TEST_CASE("dihedral_range, min_dihedral and tet_stats_by_group agree with the an
   CHECK(all.max_dihedral_deg == whole.max_dihedral_deg);
   CHECK(all.max_radius_edge == whole.max_radius_edge);
   CHECK(all.mean_radius_edge == doctest::Approx(whole.mean_radius_edge).epsilon(1e-12));
+}
+
+TEST_CASE("min_dihedral_cosine_unless_above and radius_edge_above give the exact answers, bounds at a hair's breadth") {
+  // Random tets, flattened ones (the fourth corner near the plane of the other three, down to on it), needles and a
+  // repeated corner: the cheap tests must settle only what the exact values settle the same way.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto point = [&] { return glm::dvec3(u(rng), u(rng), u(rng)); };
+  std::vector<std::array<glm::dvec3, 4>> tets;
+  for (int i = 0; i < 300; ++i) tets.push_back({point(), point(), point(), point()});
+  for (double h : {1e-1, 1e-3, 1e-6, 1e-9, 1e-13, 0.0})
+    for (int i = 0; i < 20; ++i) {
+      const glm::dvec3 a = point(), b = point(), c = point();
+      const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+      tets.push_back({a, b, c, (a + b + c) / 3.0 + 0.3 * point() * glm::dvec3(1, 1, 0) + h * n});
+    }
+  for (int i = 0; i < 20; ++i) {
+    const glm::dvec3 a = point(), d = point();
+    tets.push_back({a, a + 1e-7 * point(), a + 1e-7 * point(), d});  // a needle
+    tets.push_back({a, a, point(), d});                                 // a repeated corner
+  }
+  size_t settled_above = 0, cases = 0;
+  for (const auto& t : tets) {
+    const double c = mesh::min_dihedral_cosine(t[0], t[1], t[2], t[3]);
+    CHECK(mesh::min_dihedral(t[0], t[1], t[2], t[3]) == mesh::dihedral_from_cosine(c));
+    for (double bound : {c, std::nextafter(c, 2.0), std::nextafter(c, -2.0), c + 1e-12, c - 1e-12, c - 1e-6, c + 1e-6,
+                         c - 0.1, c + 0.1, -1.0, 1.0, -2.0, 0.0}) {
+      const double r = mesh::min_dihedral_cosine_unless_above(t[0], t[1], t[2], t[3], bound);
+      ++cases;
+      if (r == HUGE_VAL) {
+        CHECK(c > bound);
+        ++settled_above;
+      } else {
+        CHECK(r == c);
+      }
+    }
+    const double ratio = mesh::radius_edge_ratio(t[0], t[1], t[2], t[3]);
+    for (double limit : {ratio, std::nextafter(ratio, HUGE_VAL), std::nextafter(ratio, 0.0), ratio * (1 + 1e-12),
+                         ratio * (1 - 1e-12), ratio * 1.01, ratio * 0.99, 0.0, 1.5, HUGE_VAL}) {
+      const bool above = mesh::radius_edge_above(t[0], t[1], t[2], t[3], limit);
+      CHECK(above == (ratio > limit));
+    }
+  }
+  // The cheap test did settle many cases (else this compares the exact values with themselves).
+  CHECK(settled_above > cases / 4);
 }
 
 TEST_CASE("seam_passes: slivers in a large mesh are mended within their part, and every tet away from them stays") {
