@@ -174,6 +174,7 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
     }
     QualityOptions o = options;
     o.keep_surface = true;
+    o.dihedral_in_tetgen = true;
     const Tets T = constrained_quality(local_points, faces, {}, seeds, o);
     made.assign(which.size(), {});
     std::unordered_map<uint32_t, size_t> slot;

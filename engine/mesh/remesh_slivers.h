@@ -1,7 +1,7 @@
 #pragma once
 // The last sliver pass: the slivers that moving vertices (improve_tets) and one-vertex refills (split_slivers) leave
 // are cut out with the tets around them and each cavity is meshed afresh by TetGen (-pqAY over the cavity's boundary
-// faces, which stay as they are), the same refinement that a whole TetGen run applies, now local. It mends what the
+// faces, which stay as they are, with TetGen's dihedral bound, which the material runs leave to the passes). It mends what the
 // other passes cannot: a tet whose four vertices all lie on kept interface triangles needs new vertices placed
 // together, and a material meshed in pieces (volume_mesh.h) leaves such tets along its separators, where each piece
 // had to keep the other's faces; after the merge the separator is an inner surface like any other.

@@ -242,7 +242,9 @@ Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
   for (size_t h = 0; h < holes.size(); ++h)
     for (int a = 0; a < 3; ++a) in.holelist[3 * h + size_t(a)] = holes[h][a];
   std::ostringstream sw;
-  sw << "pq" << options.max_radius_edge << "/" << options.min_dihedral << "AQz";
+  sw << "pq" << options.max_radius_edge;
+  if (options.dihedral_in_tetgen) sw << "/" << options.min_dihedral;
+  sw << "AQz";
   if (options.max_volume > 0) sw << "a" << options.max_volume;
   if (options.keep_surface) sw << "Y";
   tetgenio tetgen_out;

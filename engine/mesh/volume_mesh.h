@@ -1,7 +1,8 @@
 #pragma once
 // The tetrahedral mesh of every material, bounded by the interface triangles and conforming to them.
 //
-// Each material is meshed on its own: one TetGen run (-pqAY) over the interface triangles that bound it, with the
+// Each material is meshed on its own: one TetGen run (-pqAY, refining to the radius-edge bound only: the dihedral
+// bound is the sliver passes' to hold) over the interface triangles that bound it, with the
 // seeds of its components as regions and the seeds of every other material's components as holes (so cavities held
 // by other materials are carved out, not meshed twice), then the sliver passes on its tets: those of smooth.h
 // (improve_tets, split_slivers), then, for the slivers they leave, remesh_slivers.h (the cavity around each meshed

@@ -68,7 +68,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "vertex may take its tets up to 1.5 times this")
       ->check(CLI::Range(1.2, 1e6))
       ->capture_default_str();
-  sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle TetGen aims at, degrees (<= 18)")
+  sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle the sliver passes after TetGen aim at, degrees (<= 18)")
       ->check(CLI::Range(0.0, 18.0))
       ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
