@@ -65,7 +65,7 @@ std::array<double, 6> normal_cosines(const glm::dvec3& a, const glm::dvec3& b, c
 }
 
 // The certain answers below leave this much room for the rounding of the exact computation (which is good to about
-// 1e-15): where a test falls inside it, the exact value decides.
+// 1e-15 in the normal range their tests require): where a test falls inside it, the exact value decides.
 constexpr double kCertainMargin = 1e-9;
 
 // The circumcentre of the tet a, a + u, a + v, a + w relative to a, given det = u . (v x w); meaningless where
@@ -100,10 +100,13 @@ double min_dihedral_cosine_unless_above(const glm::dvec3& a, const glm::dvec3& b
                                         const glm::dvec3& d, double bound) {
   const auto n = outward_normals(a, b, c, d);
   // Every cosine D / sqrt(S) (D = n_k . n_l, S = |n_k|^2 |n_l|^2) above t = bound + margin, tested squared: for
-  // t < 0, D >= 0 or D^2 < t^2 S; for t >= 0, D > 0 and D^2 > t^2 S. A NaN fails every test.
+  // t < 0, D >= 0 or D^2 < t^2 S; for t >= 0, D > 0 and D^2 > t^2 S. Only where every |n_k|^2 lies well inside the
+  // normal range (S and D^2 then neither overflow nor lose precision as subnormals; edges of about 1e-37 to 1e37):
+  // a NaN fails that test.
   const double t = bound + kCertainMargin;
-  if (t < 1) {
-    const double s[4] = {glm::dot(n[0], n[0]), glm::dot(n[1], n[1]), glm::dot(n[2], n[2]), glm::dot(n[3], n[3])};
+  const double s[4] = {glm::dot(n[0], n[0]), glm::dot(n[1], n[1]), glm::dot(n[2], n[2]), glm::dot(n[3], n[3])};
+  auto in_range = [](double x) { return x >= 1e-150 && x <= 1e150; };
+  if (t < 1 && in_range(s[0]) && in_range(s[1]) && in_range(s[2]) && in_range(s[3])) {
     bool above = true;
     for (size_t k = 0; k < 4 && above; ++k)
       for (size_t l = k + 1; l < 4 && above; ++l) {
@@ -133,14 +136,17 @@ bool radius_edge_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec
                        double limit) {
   const glm::dvec3 u = b - a, v = c - a, w = d - a;
   const double det = glm::dot(u, glm::cross(v, w));
-  if (std::fabs(det) >= 1e-300) {
-    // Squared: |x|^2 against limit^2 times the shortest edge's square. A NaN fails both tests.
+  if (std::fabs(det) >= 1e-300 && limit >= 0) {
+    // Squared: |x|^2 against limit^2 times the shortest edge's square, where both lie well inside the normal range
+    // (a NaN fails that test).
     const glm::dvec3 x = circumcentre_from_a(u, v, w, det);
     const double r2 = glm::dot(x, x);
     const double bound = limit * limit * std::min({glm::dot(u, u), glm::dot(v, v), glm::dot(w, w), glm::dot(c - b, c - b),
                                                    glm::dot(d - b, d - b), glm::dot(d - c, d - c)});
-    if (r2 < bound * (1 - kCertainMargin)) return false;
-    if (r2 > bound * (1 + kCertainMargin)) return true;
+    if (r2 >= 1e-290 && r2 <= 1e290 && bound >= 1e-290 && bound <= 1e290) {
+      if (r2 < bound * (1 - kCertainMargin)) return false;
+      if (r2 > bound * (1 + kCertainMargin)) return true;
+    }
   }
   return radius_edge_ratio(a, b, c, d) > limit;
 }

@@ -29,22 +29,24 @@ double min_dihedral(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& 
 inline double min_dihedral(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
   return min_dihedral(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
 }
-// The cosine that min_dihedral takes its arc cosine of (the angle is dihedral_from_cosine of it, and grows with it): a
-// tet's smallest dihedral angle for comparisons in inner loops, with no arc cosine.
+// The cosine that min_dihedral takes its arc cosine of (the angle is dihedral_from_cosine of it, and never shrinks as
+// it grows; neighbouring cosines often give one angle): a tet's smallest dihedral angle for comparisons in inner loops,
+// with no arc cosine.
 double min_dihedral_cosine(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
 inline double min_dihedral_cosine(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
   return min_dihedral_cosine(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
 }
 // min_dihedral_cosine where it may be at most `bound`; where it is certainly above `bound`, +infinity. Tested with no
-// square root or division first, so the smallest cosine of many tets, or whether one is at most a bound, costs less
-// with the same answer.
+// square root or division first (where the tet's edges lie between about 1e-37 and 1e37; else the exact value), so
+// the smallest cosine of many tets, or whether one is at most a bound, costs less with the same answer.
 double min_dihedral_cosine_unless_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
                                         const glm::dvec3& d, double bound);
 // The dihedral angle (radians) whose faces' outward normals meet at this cosine: min_dihedral is this of
 // min_dihedral_cosine, bit for bit.
 inline double dihedral_from_cosine(double cosine) { return M_PI - std::acos(cosine); }
 double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d);
-// radius_edge_ratio(a, b, c, d) > limit, the same answer, with no square root where the squares settle it.
+// radius_edge_ratio(a, b, c, d) > limit, the same answer, with no square root where the squares settle it (a limit
+// >= 0, squares in the normal range).
 bool radius_edge_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
                        double limit);
 // The volume of tet abcd (unsigned).

@@ -237,18 +237,25 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
     return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
   };
-  // Every tet's smallest dihedral angle as its cosine (min_dihedral_cosine: the same order, no arc cosine), kept
-  // current as vertices move (one parallel pass, then only the tets of a moved vertex).
+  // Every tet's smallest dihedral angle as its cosine (min_dihedral_cosine: no arc cosine; the angle never shrinks as
+  // it grows), kept current as vertices move (one parallel pass, then only the tets of a moved vertex).
   std::vector<double> cosine(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t != r.end(); ++t) cosine[t] = min_dihedral_cosine(P, tets[t]);
   });
-  // Whether tet t is below the target: by its cosine where that is clear, else by the angle.
+  // Whether tet t's angle is below the target, or at or above it (neither holds for a NaN): by its cosine where that
+  // is clear (1e-9 either side of the target's cosine, far beyond the arc cosine's rounding), else by the angle.
   const double target_cosine = std::cos(M_PI - target);
+  const bool banded = target >= 0 && target <= M_PI;
   auto below = [&](uint32_t t) {
-    if (cosine[t] < target_cosine - 1e-9) return true;
-    if (cosine[t] > target_cosine + 1e-9) return false;
+    if (banded && cosine[t] < target_cosine - 1e-9) return true;
+    if (banded && cosine[t] > target_cosine + 1e-9) return false;
     return dihedral_from_cosine(cosine[t]) < target;
+  };
+  auto at_or_above = [&](uint32_t t) {
+    if (banded && cosine[t] < target_cosine - 1e-9) return false;
+    if (banded && cosine[t] > target_cosine + 1e-9) return true;
+    return dihedral_from_cosine(cosine[t]) >= target;
   };
   auto worst_angle = [&] {
     return cosine.empty() ? M_PI : dihedral_from_cosine(*std::min_element(cosine.begin(), cosine.end()));
@@ -309,7 +316,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
       queue.pop_back();
       if (t == last) continue;
       last = t;
-      if (!below(t)) continue;
+      if (at_or_above(t)) continue;
       for (uint32_t v : tets[t]) {
         if (v < fixed) continue;
         const glm::dvec3 start = P[v];
@@ -332,10 +339,13 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
         if (count == 0) continue;
         centroid /= double(count);
         edge /= double(count);
+        // A candidate is kept where its angle (not only its cosine: neighbouring cosines often give one angle)
+        // beats the best so far; any valid one beats an invalid start (-2).
         auto consider = [&](const glm::dvec3& at) {
           P[v] = at;
           const double q = quality_at(mine, limit, best);
-          if (q > best) best = q, best_at = at;
+          const bool better = best < -1 ? q >= -1 : q > best && dihedral_from_cosine(q) > dihedral_from_cosine(best);
+          if (better) best = q, best_at = at;
         };
         consider(centroid);
         for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)

@@ -576,14 +576,13 @@ mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std:
     sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
   }
   report.min_dihedral_before = worst();
-  // The smallest angle of v's tets as its cosine (what the library compares), -2 where one is inverted or too long.
   auto quality_at = [&](uint32_t v, double limit) {
-    double q = 1.0;
+    double q = M_PI;
     for (uint32_t t : around[v]) {
       const auto& k = tets[t];
       if (signed_volume(k) * sign[t] <= 0 || mesh::radius_edge_ratio(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) > limit)
-        return -2.0;
-      q = std::min(q, mesh::min_dihedral_cosine(P, k));
+        return -1.0;
+      q = std::min(q, min_angle(k));
     }
     return q;
   };
@@ -728,15 +727,29 @@ TEST_CASE("min_dihedral_cosine_unless_above and radius_edge_above give the exact
     tets.push_back({a, a + 1e-7 * point(), a + 1e-7 * point(), d});  // a needle
     tets.push_back({a, a, point(), d});                                 // a repeated corner
   }
+  // Far outside any mesh's scale (a review found each of these wrong before the squares were kept in range): the
+  // squared normals overflow near 3e38, turn subnormal near 1e-40 and underflow near 1e-81; near 1e154 the exact
+  // value is NaN.
+  for (double scale : {1e-81, 1e-40, 1e38, 3e38, 1e154})
+    for (int i = 0; i < 5; ++i) {
+      std::array<glm::dvec3, 4> t = i == 0 ? std::array<glm::dvec3, 4>{glm::dvec3(0), glm::dvec3(1, 0, 0),
+                                                                       glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)}
+                                           : std::array<glm::dvec3, 4>{point(), point(), point(), point()};
+      for (auto& p : t) p *= scale;
+      tets.push_back(t);
+    }
+  tets.push_back({glm::dvec3(0), glm::dvec3(1e-10, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0.3, 0.4, 1e-150)});
   size_t settled_above = 0, cases = 0;
   for (const auto& t : tets) {
     const double c = mesh::min_dihedral_cosine(t[0], t[1], t[2], t[3]);
-    CHECK(mesh::min_dihedral(t[0], t[1], t[2], t[3]) == mesh::dihedral_from_cosine(c));
+    if (!std::isnan(c)) CHECK(mesh::min_dihedral(t[0], t[1], t[2], t[3]) == mesh::dihedral_from_cosine(c));
     for (double bound : {c, std::nextafter(c, 2.0), std::nextafter(c, -2.0), c + 1e-12, c - 1e-12, c - 1e-6, c + 1e-6,
                          c - 0.1, c + 0.1, -1.0, 1.0, -2.0, 0.0}) {
       const double r = mesh::min_dihedral_cosine_unless_above(t[0], t[1], t[2], t[3], bound);
       ++cases;
-      if (r == HUGE_VAL) {
+      if (std::isnan(c)) {
+        CHECK(std::isnan(r));
+      } else if (r == HUGE_VAL) {
         CHECK(c > bound);
         ++settled_above;
       } else {
@@ -745,7 +758,7 @@ TEST_CASE("min_dihedral_cosine_unless_above and radius_edge_above give the exact
     }
     const double ratio = mesh::radius_edge_ratio(t[0], t[1], t[2], t[3]);
     for (double limit : {ratio, std::nextafter(ratio, HUGE_VAL), std::nextafter(ratio, 0.0), ratio * (1 + 1e-12),
-                         ratio * (1 - 1e-12), ratio * 1.01, ratio * 0.99, 0.0, 1.5, HUGE_VAL}) {
+                         ratio * (1 - 1e-12), ratio * 1.01, ratio * 0.99, 0.0, 1.5, HUGE_VAL, -1.0, 1e155}) {
       const bool above = mesh::radius_edge_above(t[0], t[1], t[2], t[3], limit);
       CHECK(above == (ratio > limit));
     }
