@@ -252,11 +252,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     if (banded && cosine[t] > target_cosine + 1e-9) return false;
     return dihedral_from_cosine(cosine[t]) < target;
   };
-  auto at_or_above = [&](uint32_t t) {
-    if (banded && cosine[t] < target_cosine - 1e-9) return false;
-    if (banded && cosine[t] > target_cosine + 1e-9) return true;
-    return dihedral_from_cosine(cosine[t]) >= target;
-  };
+  auto at_or_above = [&](uint32_t t) { return !std::isnan(cosine[t]) && !below(t); };
   auto worst_angle = [&] {
     return cosine.empty() ? M_PI : dihedral_from_cosine(*std::min_element(cosine.begin(), cosine.end()));
   };
