@@ -375,7 +375,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       for (const auto& t : I.triangles)  // -Y: the interface triangles are kept as they are
         out.triangles.push_back({renumber[t[0]], renumber[t[1]], renumber[t[2]]});
       out.triangle_pair = result.surfaces.triangle_pair;
-      const std::vector<TetStats> per_material = tet_stats_by_group(V.points, V.tets, material_of, labels.size());
+      std::vector<TetStats> per_material = tet_stats_by_group(V.points, V.tets, material_of, labels.size());
+      for (TetStats& s : per_material) s.worst_centroid = grid.to_physical(s.worst_centroid);  // the output's units
       rep.volume = combined(per_material);
       for (size_t m = 0; m < labels.size(); ++m) rep.materials[m].tets = per_material[m];
       rep.steps.push_back({"volume mesh", "output and statistics",

@@ -538,7 +538,11 @@ std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& V, const
       TetStats &x = a.s[g];
       const TetStats& y = b.s[g];
       x.tets += y.tets;
-      x.min_dihedral_deg = std::min(x.min_dihedral_deg, y.min_dihedral_deg);
+      // b's tets come after a's: a keeps a tie.
+      if (y.worst_tet != SIZE_MAX && (x.worst_tet == SIZE_MAX || y.min_dihedral_deg < x.min_dihedral_deg)) {
+        x.worst_tet = y.worst_tet;
+        x.min_dihedral_deg = y.min_dihedral_deg;
+      }
       x.max_dihedral_deg = std::max(x.max_dihedral_deg, y.max_dihedral_deg);
       x.max_radius_edge = std::max(x.max_radius_edge, y.max_radius_edge);
       x.mean_radius_edge += y.mean_radius_edge;  // the sum until the end
@@ -553,7 +557,10 @@ std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& V, const
           const auto& t = tets[i];
           TetStats& x = acc.s[group[i]];
           const auto range = dihedral_range(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
-          x.min_dihedral_deg = std::min(x.min_dihedral_deg, range[0] * 180 / M_PI);
+          if (const double d = range[0] * 180 / M_PI; d < x.min_dihedral_deg || x.worst_tet == SIZE_MAX) {
+            x.min_dihedral_deg = std::min(x.min_dihedral_deg, d);
+            x.worst_tet = i;
+          }
           x.max_dihedral_deg = std::max(x.max_dihedral_deg, range[1] * 180 / M_PI);
           const double re = radius_edge_ratio(V[t[0]], V[t[1]], V[t[2]], V[t[3]]);
           x.max_radius_edge = std::max(x.max_radius_edge, re);
@@ -569,6 +576,8 @@ std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& V, const
       continue;
     }
     x.mean_radius_edge /= double(x.tets);
+    const auto& t = tets[x.worst_tet];
+    x.worst_centroid = (V[t[0]] + V[t[1]] + V[t[2]] + V[t[3]]) / 4.0;
   }
   return all.s;
 }
@@ -594,7 +603,12 @@ TetStats combined(const std::vector<TetStats>& parts) {
   double sum = 0;
   for (const TetStats& x : parts) {
     if (x.tets == 0) continue;
-    s.min_dihedral_deg = s.tets == 0 ? x.min_dihedral_deg : std::min(s.min_dihedral_deg, x.min_dihedral_deg);
+    if (s.tets == 0 || x.min_dihedral_deg < s.min_dihedral_deg ||
+        (x.min_dihedral_deg == s.min_dihedral_deg && x.worst_tet < s.worst_tet)) {  // a tie: the first tet
+      s.min_dihedral_deg = x.min_dihedral_deg;
+      s.worst_tet = x.worst_tet;
+      s.worst_centroid = x.worst_centroid;
+    }
     s.max_dihedral_deg = std::max(s.max_dihedral_deg, x.max_dihedral_deg);
     s.max_radius_edge = std::max(s.max_radius_edge, x.max_radius_edge);
     sum += x.mean_radius_edge * double(x.tets);

@@ -134,13 +134,18 @@ size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& triangles);
 struct TetStats {
   size_t tets = 0;
   double min_dihedral_deg = 0, max_dihedral_deg = 0, max_radius_edge = 0, mean_radius_edge = 0;
+  // The tet with the smallest dihedral angle (the first in the given order where several share it) and its
+  // centroid, so that a report can say where the worst element is; SIZE_MAX with no tet.
+  size_t worst_tet = SIZE_MAX;
+  glm::dvec3 worst_centroid{0.0};
 };
 TetStats tet_stats(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets);
 // How many tets have a dihedral angle below min_deg degrees (in parallel).
 size_t count_below_dihedral(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<uint32_t, 4>>& tets,
                             double min_deg);
 // The same per group of tets (group[i] < groups: tet i's group), in one parallel pass; a group with no tet gets
-// TetStats{}. `combined` joins groups into the stats of all their tets.
+// TetStats{}. `combined` joins groups into the stats of all their tets (worst_tet: the first of the parts' worst with
+// the smallest angle, so the same as one group's).
 std::vector<TetStats> tet_stats_by_group(const std::vector<glm::dvec3>& vertices,
                                          const std::vector<std::array<uint32_t, 4>>& tets,
                                          const std::vector<uint16_t>& group, size_t groups);

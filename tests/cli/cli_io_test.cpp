@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/run_tool.h"
+#include "io/mesh_readers.h"
+#include "mesh/quality.h"
 
 using cpmesh::test::contains;
 using cpmesh::test::run_tool;
@@ -145,6 +147,31 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   REQUIRE(j["volume_mesh"]["runs"].size() == 1);
   CHECK(j["volume_mesh"]["runs"][0]["pieces"] == 1);
   CHECK(j["volume_mesh"]["separator_points"] == 0);
+  {
+    // The worst tet named in the report is the cell of volume.vtu with the smallest dihedral angle, where it says.
+    const auto vtu = cpmesh::io::read_vtu((out / "volume.vtu").string());
+    const auto& v = j["volume_mesh"];
+    const size_t worst = v.at("worst_tet").get<size_t>();
+    REQUIRE(worst < vtu.tets.size());
+    auto corner = [&](uint32_t i) { return glm::dvec3(vtu.vertices[i][0], vtu.vertices[i][1], vtu.vertices[i][2]); };
+    double smallest = 180;
+    size_t first = 0;
+    for (size_t t = 0; t < vtu.tets.size(); ++t) {
+      const auto& k = vtu.tets[t];
+      const double d = cpmesh::mesh::min_dihedral(corner(k[0]), corner(k[1]), corner(k[2]), corner(k[3])) * 180 / M_PI;
+      if (d < smallest) {
+        smallest = d;
+        first = t;
+      }
+    }
+    CHECK(worst == first);
+    CHECK(v.at("min_dihedral_deg").get<double>() == doctest::Approx(smallest).epsilon(1e-9));
+    const auto& k = vtu.tets[worst];
+    const glm::dvec3 centroid = (corner(k[0]) + corner(k[1]) + corner(k[2]) + corner(k[3])) / 4.0;
+    for (int a = 0; a < 3; ++a)
+      CHECK(v.at("worst_tet_centroid")[size_t(a)].get<double>() == doctest::Approx(centroid[a]).epsilon(1e-9));
+    CHECK(contains(r.output, "smallest dihedral angle"));
+  }
   // Timings: the read, every stage, and the steps of the three stages that have them, each within its stage.
   CHECK(contains(r.output, "read volume"));
   CHECK(contains(r.output, "    tetrahedralization"));

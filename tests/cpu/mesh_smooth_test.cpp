@@ -708,6 +708,58 @@ TEST_CASE("dihedral_range, min_dihedral and tet_stats_by_group agree with the an
   CHECK(all.mean_radius_edge == doctest::Approx(whole.mean_radius_edge).epsilon(1e-12));
 }
 
+TEST_CASE("tet_stats_by_group and combined name the worst tet: the first with the smallest angle, on any thread count") {
+  // A Delaunay mesh's tets listed twelve times over (in more than two of the reduction's chunks of 16384): every smallest
+  // angle is tied by eleven later copies, in other chunks, and the first copy must win each time.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<glm::dvec3> P;
+  for (int i = 0; i < 500; ++i) P.push_back(glm::dvec3(u(rng), u(rng), u(rng)));
+  const auto T = mesh::delaunay(P);
+  std::vector<std::array<uint32_t, 4>> tets;
+  for (int copy = 0; copy < 12; ++copy) tets.insert(tets.end(), T.tets.begin(), T.tets.end());
+  REQUIRE(tets.size() > 2 * 16384);
+  std::vector<uint16_t> group(tets.size());
+  // Copy k in group 2 - k % 3: the first copy's tets in the last group, so that a group's worst tet ties the worst tet
+  // of a group before it and combined must choose by the tets' order, not by the groups'.
+  for (size_t i = 0; i < tets.size(); ++i) group[i] = uint16_t(2 - (i / T.tets.size()) % 3);
+  // The plain definition, per group and over all.
+  std::vector<size_t> worst(3, SIZE_MAX);
+  std::vector<double> lo(3, 180);
+  size_t worst_all = SIZE_MAX;
+  double lo_all = 180;
+  for (size_t i = 0; i < tets.size(); ++i) {
+    const auto& t = tets[i];
+    const double d = mesh::dihedral_range(P[t[0]], P[t[1]], P[t[2]], P[t[3]])[0] * 180 / M_PI;
+    if (d < lo[group[i]]) {
+      lo[group[i]] = d;
+      worst[group[i]] = i;
+    }
+    if (d < lo_all) {
+      lo_all = d;
+      worst_all = i;
+    }
+  }
+  for (int threads : {1, 2, 4}) {
+    CAPTURE(threads);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    const auto stats = mesh::tet_stats_by_group(P, tets, group, 4);  // group 3 stays empty
+    for (size_t g = 0; g < 3; ++g) {
+      CAPTURE(g);
+      CHECK(stats[g].worst_tet == worst[g]);
+      const auto& t = tets[worst[g]];
+      CHECK(stats[g].worst_centroid == (P[t[0]] + P[t[1]] + P[t[2]] + P[t[3]]) / 4.0);
+    }
+    CHECK(stats[3].worst_tet == SIZE_MAX);
+    const auto all = mesh::combined(stats);
+    CHECK(all.min_dihedral_deg == lo_all);
+    CHECK(all.worst_tet == worst_all);
+    CHECK(all.worst_tet < T.tets.size());  // in the first copy
+    CHECK(mesh::tet_stats(P, tets).worst_tet == worst_all);
+  }
+  CHECK(mesh::tet_stats(P, {}).worst_tet == SIZE_MAX);
+}
+
 TEST_CASE("min_dihedral_cosine_unless_above and radius_edge_above give the exact answers, bounds at a hair's breadth") {
   // Random tets, flattened ones (the fourth corner near the plane of the other three, down to on it), needles and a
   // repeated corner: the cheap tests must settle only what the exact values settle the same way.

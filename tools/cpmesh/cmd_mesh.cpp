@@ -29,8 +29,13 @@ nlohmann::json triangle_json(const mesh::TriangleStats& s) {
           {"min_radius_ratio", s.min_radius_ratio}, {"share_below_0_5", s.share_below_half}};
 }
 nlohmann::json tet_json(const mesh::TetStats& s) {
-  return {{"tets", s.tets}, {"min_dihedral_deg", s.min_dihedral_deg}, {"max_dihedral_deg", s.max_dihedral_deg},
-          {"max_radius_edge", s.max_radius_edge}, {"mean_radius_edge", s.mean_radius_edge}};
+  nlohmann::json j = {{"tets", s.tets}, {"min_dihedral_deg", s.min_dihedral_deg}, {"max_dihedral_deg", s.max_dihedral_deg},
+                      {"max_radius_edge", s.max_radius_edge}, {"mean_radius_edge", s.mean_radius_edge}};
+  if (s.worst_tet != SIZE_MAX) {  // where the smallest angle is: its index in volume's cells, its centroid
+    j["worst_tet"] = s.worst_tet;
+    j["worst_tet_centroid"] = {s.worst_centroid.x, s.worst_centroid.y, s.worst_centroid.z};
+  }
+  return j;
 }
 
 }  // namespace
@@ -262,6 +267,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
                             rep.sliver_split.flips, rep.sliver_split.inserted, rep.sliver_split.remeshed,
                             rep.sliver_split.failed, rep.volume.max_radius_edge);
+                if (rep.volume.worst_tet != SIZE_MAX)
+                  std::printf("  smallest dihedral angle %.3g deg: tet %zu, centroid (%.4g, %.4g, %.4g)\n",
+                              rep.volume.min_dihedral_deg, rep.volume.worst_tet, rep.volume.worst_centroid.x,
+                              rep.volume.worst_centroid.y, rep.volume.worst_centroid.z);
                 for (const auto& run : rep.volume_runs) {
                   std::string who = run.material < rep.materials.size()
                                         ? "material " + std::to_string(rep.materials[run.material].label)
