@@ -573,6 +573,27 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
                       nullptr);
 }
 
+constexpr double kClampedShare = 0.999;
+
+double feature_distance(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x) {
+  int m[4];
+  const int count = materials_of(feature, m);
+  double f[4];
+  glm::dvec3 grad[4];
+  sample_feature_fields(F, m, count, x, f, grad);
+  // A field at its band's depth is clamped there: it says only that its material's boundary is farther than the
+  // band, and two clamped fields meet everywhere.
+  for (int a = 0; a < count; ++a)
+    if (!(std::fabs(f[a]) < kClampedShare * F.band)) return std::numeric_limits<double>::infinity();
+  double farthest = 0;
+  for (int a = 1; a < count; ++a) {
+    const double slope = glm::length((grad[0] - grad[a]) / F.grid.spacing);
+    if (!(slope > 0)) return std::numeric_limits<double>::infinity();
+    farthest = std::max(farthest, std::fabs(f[0] - f[a]) / slope);
+  }
+  return farthest;
+}
+
 namespace {
 
 // Voxels from a feature within which every voxel's block must exist: the lookup band plus a WENO4 stencil's reach

@@ -87,6 +87,7 @@ struct MeshReport {
   double band_voxels = 0;  // the indicator fields' band, as chosen
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
+  size_t off_feature_particles = 0;  // particles left out for lying off their feature (particles::drop_off_feature)
   int iterations = 0;
   bool settled = false, steady = false;
   size_t delaunay_tets = 0;

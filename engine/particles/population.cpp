@@ -601,6 +601,29 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   return result;
 }
 
+size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
+                        Population& population, double share) {
+  const size_t n = population.particles.size();
+  std::vector<uint8_t> drop(n, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const auto& feature = E.features[population.features[i]];
+      if (feature.kind == fields::FeatureKind::quadruple_point) continue;
+      const glm::vec4& p = population.particles[i];
+      drop[i] = !(fields::feature_distance(fields, feature, glm::dvec3(glm::vec3(p))) <= share * double(p.w));
+    }
+  });
+  Population kept;
+  for (size_t i = 0; i < n; ++i) {
+    if (drop[i]) continue;
+    kept.particles.push_back(population.particles[i]);
+    kept.features.push_back(population.features[i]);
+  }
+  const size_t removed = n - kept.particles.size();
+  population = std::move(kept);
+  return removed;
+}
+
 size_t protect_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
                          Population& population, double rho) {
   if (rho <= 0) return 0;

@@ -54,3 +54,53 @@ TEST_CASE("protect_junctions: the band around the wedge ball's axis curve") {
   // rho = 0: nothing is removed.
   CHECK(particles::protect_junctions(F.fields, E, P, 0.0) == 0);
 }
+
+TEST_CASE("drop_off_feature: particles off their feature go, those on it stay in order, quadruple points always stay") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 64);
+  const auto F = fields::build_fields(wb.grid, wb.labels.data());
+  const auto& E = F.embedding;
+  const int plane = E.feature_index(FeatureKind::interface, {1, 2, 0xffff, 0xffff});
+  const int axis = E.feature_index(FeatureKind::triple_curve, {1, 2, 3, 0xffff});
+  REQUIRE(plane >= 0);
+  REQUIRE(axis >= 0);
+  REQUIRE(!E.quadruple_points.empty());
+  // The 1|2 wedge plane (as in the test above) and its normal.
+  const double R = 25.0, theta = 0.3 + 2 * std::numbers::pi / 3;
+  const glm::dvec3 dir(std::cos(theta), std::sin(theta), 0.0), normal(-std::sin(theta), std::cos(theta), 0.0);
+  const float h = 2.0f;
+  auto on = [&](int feature, const glm::dvec3& near) {
+    glm::dvec3 foot;
+    REQUIRE(fields::project_to_feature(F.fields, E.features[size_t(feature)], near, foot));
+    return foot;
+  };
+  const glm::dvec3 p = on(plane, wb.centre + glm::dvec3(0, 0, 0.3 * R) + 0.5 * R * dir);
+  const glm::dvec3 c = on(axis, wb.centre + glm::dvec3(0, 0, 0.7 * R));
+  // To first order the distance across the plane, in voxels (unit spacing).
+  CHECK(fields::feature_distance(F.fields, E.features[size_t(plane)], p) < 0.01);
+  CHECK(fields::feature_distance(F.fields, E.features[size_t(plane)], p + 1.0 * normal) ==
+        doctest::Approx(1.0).epsilon(0.15));
+  CHECK(std::isinf(fields::feature_distance(F.fields, E.features[size_t(plane)], wb.centre + glm::dvec3(0, 0, 1.3 * R))));
+  particles::Population P;
+  auto add = [&](const glm::dvec3& x, int feature) {
+    P.particles.push_back(glm::vec4(glm::vec3(x), h));
+    P.features.push_back(uint32_t(feature));
+  };
+  add(p, plane);                                       // kept
+  add(p + 0.3 * normal, plane);                        // 0.3 voxel = 0.15 h off: kept at a share of 0.25
+  add(p + 1.0 * normal, plane);                        // 0.5 h: removed
+  add(wb.centre + glm::dvec3(0, 0, 1.3 * R), plane);   // outside the ball, both fields clamped: removed
+  add(c, axis);                                        // kept
+  add(c + 1.5 * dir, axis);                            // off the curve, on its 1|2 plane: removed
+  add(E.quadruple_points[0].position + glm::dvec3(3.0, 0, 0), int(E.quadruple_points[0].feature));  // kept
+  const particles::Population before = P;
+  CHECK(particles::drop_off_feature(F.fields, E, P, 0.25) == 3);
+  REQUIRE(P.particles.size() == 4);
+  for (auto [kept, was] : {std::pair{0, 0}, {1, 1}, {2, 4}, {3, 6}}) {
+    CAPTURE(kept);
+    CHECK(P.particles[size_t(kept)] == before.particles[size_t(was)]);
+    CHECK(P.features[size_t(kept)] == before.features[size_t(was)]);
+  }
+  // A share of 0: only a particle exactly on its feature would stay; these are within 0.01 voxel, not exactly on.
+  particles::Population strict = before;
+  CHECK(particles::drop_off_feature(F.fields, E, strict, 0.0) >= 5);
+}

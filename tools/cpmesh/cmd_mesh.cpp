@@ -195,6 +195,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["surface_at_junctions"] = triangle_json(rep.junction_triangles);
             j["surface_away_from_junctions"] = triangle_json(rep.other_triangles);
             j["protected_particles"] = rep.protected_particles;
+            j["off_feature_particles"] = rep.off_feature_particles;
             j["smoothing_moves"] = rep.smoothing_moves;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
@@ -250,9 +251,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("  triangles at junctions: %zu, mean radius ratio %.3f; elsewhere: %zu, %.3f\n",
                         rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
                         rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
-            std::printf("  junctions: %zu interface particles left out (protection); repair: %zu wrong faces, %zu tets "
-                        "relabelled, %zu curve points added, %zu left\n",
-                        rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
+            std::printf("  particles left out: %zu off their feature; junctions: %zu interface particles left out "
+                        "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu curve points added, %zu left\n",
+                        rep.off_feature_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
                         rep.added_curve_points, rep.wrong_faces);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials "
                         "closed; %zu crossing triangle pairs\n",
