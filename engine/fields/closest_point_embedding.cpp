@@ -591,6 +591,16 @@ double feature_distance(const IndicatorFields& F, const Feature& feature, const 
     if (!(slope > 0)) return std::numeric_limits<double>::infinity();
     farthest = std::max(farthest, std::fabs(f[0] - f[a]) / slope);
   }
+  // Another material's field above the feature's: the point lies inside that material, at about the difference (the
+  // fields are signed distances near their boundaries).
+  const double lowest = *std::min_element(f, f + count);
+  const size_t M = F.material_count();
+  std::vector<const BrickField*> others;
+  for (size_t c = 0; c < M; ++c)
+    if (std::find(m, m + count, int(c)) == m + count) others.push_back(&F.fields[c]);
+  std::vector<double> value(others.size());
+  if (!others.empty()) BrickField::sample_cubic_many(others.data(), int(others.size()), x / F.grid.spacing, value.data(), nullptr);
+  for (double v : value) farthest = std::max(farthest, v - lowest);
   return farthest;
 }
 

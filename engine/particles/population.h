@@ -246,11 +246,12 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
                          Population& population, double rho);
 
 // Removes every particle (but quadruple points) that lies farther than `share` x its h from its feature of the smooth
-// fields (fields::feature_distance). Advection and the add rounds put particles where the embedding's closest point
-// lookup says; where that lookup interpolates between fine points whose closest points disagree (near a thin part's
-// band edge) it can answer a place well off the feature, and a particle left there pulls its interface into a spike
-// through a neighbouring material (the 160^3 head proxy: an interface 1/2 particle 3.4 voxels from material 2, on
-// the 0/1 interface, which made a 0.005-degree tet). Returns the count removed; the order of the rest is kept.
+// fields (fields::feature_distance: off the constraints, or inside another material). Advection and the add rounds
+// put particles where the embedding's closest point lookup says, and near thin parts that lookup can answer a place
+// well off the feature; a particle left there pulls its interface into a spike through a neighbouring material (the
+// 160^3 head proxy: an interface 1/2 particle 3.4 voxels from material 2, on the 0/1 interface, which made a
+// 0.005-degree tet) or sits inside a material as a vertex of no interface. Returns the count removed; the order of
+// the rest is kept.
 size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
                         Population& population, double share);
 

@@ -89,18 +89,29 @@ TEST_CASE("drop_off_feature: particles off their feature go, those on it stay in
   add(p + 0.3 * normal, plane);                        // 0.3 voxel = 0.15 h off: kept at a share of 0.25
   add(p + 1.0 * normal, plane);                        // 0.5 h: removed
   add(wb.centre + glm::dvec3(0, 0, 1.3 * R), plane);   // outside the ball, both fields clamped: removed
+  // On the 1|2 plane's level set f1 = f2 continued into the inner ball (material 4), 2 voxels inside it: the
+  // constraint holds, but material 4's field is above both. Removed.
+  const glm::dvec3 inner = wb.centre + glm::dvec3(3.0, 2.0, 2.5);  // the 64^3 ball's inner centre (radius 9)
+  const glm::dvec3 across = inner - glm::dot(inner - wb.centre, normal) * normal;  // on the plane
+  const glm::dvec3 q = on(plane, across + glm::dvec3(0, 0, std::sqrt(49.0 - glm::dot(inner - across, inner - across))));
+  CHECK(glm::length(q - inner) < 8.0);
+  double f[5];
+  for (int m = 0; m < 5; ++m) f[m] = F.fields.fields[size_t(m)].sample_cubic(q / F.fields.grid.spacing);
+  CHECK(f[4] > std::max(f[1], f[2]) + 1.0);
+  CHECK(fields::feature_distance(F.fields, E.features[size_t(plane)], q) == doctest::Approx(f[4] - std::min(f[1], f[2])));
+  add(q, plane);
   add(c, axis);                                        // kept
   add(c + 1.5 * dir, axis);                            // off the curve, on its 1|2 plane: removed
   add(E.quadruple_points[0].position + glm::dvec3(3.0, 0, 0), int(E.quadruple_points[0].feature));  // kept
   const particles::Population before = P;
-  CHECK(particles::drop_off_feature(F.fields, E, P, 0.25) == 3);
+  CHECK(particles::drop_off_feature(F.fields, E, P, 0.25) == 4);
   REQUIRE(P.particles.size() == 4);
-  for (auto [kept, was] : {std::pair{0, 0}, {1, 1}, {2, 4}, {3, 6}}) {
+  for (auto [kept, was] : {std::pair{0, 0}, {1, 1}, {2, 5}, {3, 7}}) {
     CAPTURE(kept);
     CHECK(P.particles[size_t(kept)] == before.particles[size_t(was)]);
     CHECK(P.features[size_t(kept)] == before.features[size_t(was)]);
   }
   // A share of 0: only a particle exactly on its feature would stay; these are within 0.01 voxel, not exactly on.
   particles::Population strict = before;
-  CHECK(particles::drop_off_feature(F.fields, E, strict, 0.0) >= 5);
+  CHECK(particles::drop_off_feature(F.fields, E, strict, 0.0) >= 6);
 }
