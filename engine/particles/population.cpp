@@ -601,6 +601,23 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
   return result;
 }
 
+namespace {
+
+// Removes the particles with drop[i] set, keeping the others' order; returns how many went.
+size_t remove_flagged(Population& population, const std::vector<uint8_t>& drop) {
+  Population kept;
+  for (size_t i = 0; i < population.particles.size(); ++i) {
+    if (drop[i]) continue;
+    kept.particles.push_back(population.particles[i]);
+    kept.features.push_back(population.features[i]);
+  }
+  const size_t removed = population.particles.size() - kept.particles.size();
+  population = std::move(kept);
+  return removed;
+}
+
+}  // namespace
+
 size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
                         Population& population, double share) {
   const size_t n = population.particles.size();
@@ -613,15 +630,7 @@ size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::Clo
       drop[i] = !(fields::feature_distance(fields, feature, glm::dvec3(glm::vec3(p))) <= share * double(p.w));
     }
   });
-  Population kept;
-  for (size_t i = 0; i < n; ++i) {
-    if (drop[i]) continue;
-    kept.particles.push_back(population.particles[i]);
-    kept.features.push_back(population.features[i]);
-  }
-  const size_t removed = n - kept.particles.size();
-  population = std::move(kept);
-  return removed;
+  return remove_flagged(population, drop);
 }
 
 size_t protect_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
@@ -674,15 +683,7 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
       drop[i] = near;
     }
   });
-  Population kept;
-  for (size_t i = 0; i < n; ++i) {
-    if (drop[i]) continue;
-    kept.particles.push_back(population.particles[i]);
-    kept.features.push_back(population.features[i]);
-  }
-  const size_t removed = n - kept.particles.size();
-  population = std::move(kept);
-  return removed;
+  return remove_flagged(population, drop);
 }
 
 }  // namespace cpmesh::particles
