@@ -573,18 +573,12 @@ bool project_to_feature(const IndicatorFields& F, const Feature& feature, const 
                       nullptr);
 }
 
-constexpr double kClampedShare = 0.999;
-
 double feature_distance(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x) {
   int m[4];
   const int count = materials_of(feature, m);
   double f[4];
   glm::dvec3 grad[4];
   sample_feature_fields(F, m, count, x, f, grad);
-  // A field at its band's depth is clamped there: it says only that its material's boundary is farther than the
-  // band, and two clamped fields meet everywhere.
-  for (int a = 0; a < count; ++a)
-    if (!(std::fabs(f[a]) < kClampedShare * F.band)) return std::numeric_limits<double>::infinity();
   double farthest = 0;
   for (int a = 1; a < count; ++a) {
     const double slope = glm::length((grad[0] - grad[a]) / F.grid.spacing);
@@ -592,7 +586,8 @@ double feature_distance(const IndicatorFields& F, const Feature& feature, const 
     farthest = std::max(farthest, std::fabs(f[0] - f[a]) / slope);
   }
   // Another material's field above the feature's: the point lies inside that material, at about the difference (the
-  // fields are signed distances near their boundaries).
+  // fields are signed distances near their boundaries). This also settles points where the feature's fields are
+  // clamped at the band's depth (they meet everywhere there): the material the point lies in is far above them.
   const double lowest = *std::min_element(f, f + count);
   const size_t M = F.material_count();
   std::vector<const BrickField*> others;

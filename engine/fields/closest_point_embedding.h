@@ -197,8 +197,8 @@ bool project_to_feature(const IndicatorFields& fields, const Feature& feature, c
 // How far `local` lies from a feature of the smooth fields, to first order: over the feature's constraints
 // f_{m0} - f_{ma} = 0 the largest |f_{m0} - f_{ma}| / |grad(f_{m0} - f_{ma})| (physical units), and by how much
 // another material's field exceeds the feature's lowest (a material interface is where its two fields are equal and
-// the largest); infinity where a constraint's gradient vanishes or one of the feature's fields is clamped at its
-// band's depth (|f| >= 0.999 band). A point the embedding put on the feature gives about 0.
+// the largest); infinity where a constraint's gradient vanishes. A point the embedding put on the feature gives about
+// 0.
 double feature_distance(const IndicatorFields& fields, const Feature& feature, const glm::dvec3& local);
 
 }  // namespace cpmesh::fields

@@ -88,7 +88,7 @@ TEST_CASE("drop_off_feature: particles off their feature go, those on it stay in
   add(p, plane);                                       // kept
   add(p + 0.3 * normal, plane);                        // 0.3 voxel = 0.15 h off: kept at a share of 0.25
   add(p + 1.0 * normal, plane);                        // 0.5 h: removed
-  add(wb.centre + glm::dvec3(0, 0, 1.3 * R), plane);   // outside the ball, both fields clamped: removed
+  add(wb.centre + glm::dvec3(0, 0, 1.3 * R), plane);   // outside the ball, both fields clamped (no gradient): removed
   // On the 1|2 plane's level set f1 = f2 continued into the inner ball (material 4), 2 voxels inside it: the
   // constraint holds, but material 4's field is above both. Removed.
   const glm::dvec3 inner = wb.centre + glm::dvec3(3.0, 2.0, 2.5);  // the 64^3 ball's inner centre (radius 9)
