@@ -251,6 +251,9 @@ TEST_CASE("cpmesh-bench-pipeline: a table row and a JSON line per volume with ev
     CHECK(j.at("iterations").get<int>() > 0);
     CHECK(j.at("rounds").get<int>() >= 1);
     CHECK(j.at("tets").get<int>() > 0);
+    CHECK(j.at("wrong_faces").get<size_t>() <= j.at("wrong_faces_before_repair").get<size_t>());
+    CHECK(j.at("off_feature_particles").get<size_t>() == 0);  // a smooth sphere: every particle on its surface
+    CHECK(j.at("protected_particles").is_number_unsigned());
     CHECK(j.at("peak_host_mib").get<double>() > 0);
     CHECK(j.at("peak_device_mib").get<double>() > 0);
     CHECK(j.at("mean_radius_ratio").get<double>() > 0.85);
