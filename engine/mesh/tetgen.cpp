@@ -180,11 +180,12 @@ bool get_tets(ByteReader& r, Tets& t) {
 
 Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                          const std::vector<int>& markers, const std::vector<Region>& regions,
-                         const QualityOptions& options, const std::vector<glm::dvec3>& holes) {
+                         const QualityOptions& options, const std::vector<glm::dvec3>& holes,
+                         const std::vector<glm::dvec3>& interior) {
   check_quality_options(options);  // in this process, so that it stays a std::invalid_argument
   const std::string out = run_in_child("TetGen", [&] {
     ByteWriter w;
-    put_tets(w, constrained_quality_in_this_process(points, triangles, markers, regions, options, holes));
+    put_tets(w, constrained_quality_in_this_process(points, triangles, markers, regions, options, holes, interior));
     return w.take();
   });
   Tets t;
@@ -196,7 +197,8 @@ Tets constrained_quality(const std::vector<glm::dvec3>& points, const std::vecto
 Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
                                          const std::vector<std::array<uint32_t, 3>>& triangles,
                                          const std::vector<int>& markers, const std::vector<Region>& regions,
-                                         const QualityOptions& options, const std::vector<glm::dvec3>& holes) {
+                                         const QualityOptions& options, const std::vector<glm::dvec3>& holes,
+                                         const std::vector<glm::dvec3>& interior) {
   check_quality_options(options);
   // Only the triangles' vertices go to TetGen. The caller's list also holds points no triangle uses (particles left
   // out near junctions, merged duplicates), and TetGen drops an input point that coincides with another from its
@@ -213,7 +215,11 @@ Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
   std::vector<glm::dvec3> used_points;
   for (uint32_t v : used) used_points.push_back(points[v]);
   tetgenio in;
-  set_points(in, used_points);
+  // The interior points after the surface's: TetGen keeps the input points' order, so they cannot shift a surface
+  // vertex (one it drops, outside every region, only shifts the points after it, all of them new to the caller).
+  std::vector<glm::dvec3> given = used_points;
+  given.insert(given.end(), interior.begin(), interior.end());
+  set_points(in, given);
   in.numberoffacets = int(triangles.size());
   in.facetlist = new tetgenio::facet[triangles.size()];
   in.facetmarkerlist = new int[triangles.size()];

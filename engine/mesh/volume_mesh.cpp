@@ -15,6 +15,7 @@
 #include "host/host_array.h"
 #include "mesh/child_process.h"
 #include "mesh/elements_around.h"
+#include "mesh/interior_points.h"
 #include "mesh/quality.h"
 #include "mesh/remesh_slivers.h"
 #include "mesh/split_material.h"
@@ -237,8 +238,13 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
                        const std::string& what) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
+  // Interior points here, on the thread pool, which the child must not use. Not for the one run over all interfaces:
+  // their ray parity does not tell one material's inside.
+  const std::vector<glm::dvec3> interior = options.interior_points && job.material != UINT16_MAX
+                                               ? interior_points(points, job.triangles)
+                                               : std::vector<glm::dvec3>{};
   const std::string bytes = run_in_child(what, [&] {
-    Tets V = constrained_quality_in_this_process(points, job.triangles, {}, job.regions, options, job.holes);
+    Tets V = constrained_quality_in_this_process(points, job.triangles, {}, job.regions, options, job.holes, interior);
     V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));
     V.faces.clear();  // the interface triangles, unchanged (-Y)
     V.face_marker.clear();

@@ -83,6 +83,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "are faster on many cores, and a few more slivers may stay where pieces meet; materials whose cut would cross "
                   "thin layers stay whole")
       ->capture_default_str();
+  sub->add_flag("!--no-interior-points", m.volume.interior_points,
+               "Volume mesh: TetGen refines from the surface vertices alone, without the interior points of an octree "
+               "graded from the surfaces (the same tets within about 1%; on the paper-size head's materials TetGen took "
+               "1.35-1.9 times as long without them)");
   sub->add_option("--junction-protection", m.junction_protection,
                   "Leave out interface particles closer than this x h to a triple curve or quadruple point of their "
                   "interface (0: off); keeps junction triangles from degenerating")

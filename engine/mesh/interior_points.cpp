@@ -1,0 +1,170 @@
+#include "mesh/interior_points.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <tbb/parallel_for.h>
+
+#include "mesh/grouped.h"
+#include "mesh/parity_test.h"
+
+namespace cpmesh::mesh {
+
+namespace {
+
+// The surface's vertices in cubes of one edge (compressed rows), searched ring by ring around a point.
+class VertexGrid {
+ public:
+  VertexGrid(const std::vector<glm::dvec3>& P, const std::vector<double>& h, double cell, const glm::dvec3& lo,
+             const glm::dvec3& hi)
+      : P_(P), h_(h), lo_(lo) {
+    // At most about 16 M cubes: a surface with a few large triangles far apart gets larger ones.
+    constexpr double kMaxCubes = 16.0 * 1024 * 1024;
+    const glm::dvec3 extent = hi - lo;
+    const double cubes = (extent.x / cell + 1) * (extent.y / cell + 1) * (extent.z / cell + 1);
+    cell_ = cubes > kMaxCubes ? cell * std::cbrt(cubes / kMaxCubes) : cell;
+    n_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
+    h_min_ = *std::min_element(h.begin(), h.end());
+    cubes_ = group_by_key(size_t(n_.x) * size_t(n_.y) * size_t(n_.z), P.size(),
+                          [&](size_t v, auto&& add) { add(index(cube_of(P[v]))); });
+  }
+
+  // s = min over vertices v of (h_v + grading |x - v|) and d = min |x - v|, over the vertices within `reach` of x
+  // at least (cubes farther are not searched); both infinite where there are none.
+  void query(const glm::dvec3& x, double grading, double reach, double& s, double& d) const {
+    s = d = std::numeric_limits<double>::infinity();
+    const glm::ivec3 c = cube_of(x);
+    for (int r = 0;; ++r) {
+      // Every vertex in ring r (cubes at Chebyshev distance r) lies at least (r - 1) cubes from x.
+      const double nearest = (r - 1) * cell_;
+      if (nearest > reach || (nearest >= d && h_min_ + grading * nearest >= s)) break;
+      if (r > 0 && c.x - r < 0 && c.y - r < 0 && c.z - r < 0 && c.x + r >= n_.x && c.y + r >= n_.y && c.z + r >= n_.z)
+        break;  // the ring lies wholly outside the grid
+      const glm::ivec3 lo = glm::max(c - r, glm::ivec3(0)), hi = glm::min(c + r, n_ - 1);
+      auto visit_cube = [&](int i, int j, int k) {
+        for (uint32_t v : cubes_[index({i, j, k})]) {
+          const double l = glm::length(P_[v] - x);
+          d = std::min(d, l);
+          s = std::min(s, h_[v] + grading * l);
+        }
+      };
+      for (int k = lo.z; k <= hi.z; ++k)
+        for (int j = lo.y; j <= hi.y; ++j) {
+          if (std::abs(k - c.z) == r || std::abs(j - c.y) == r) {
+            for (int i = lo.x; i <= hi.x; ++i) visit_cube(i, j, k);
+          } else {  // the row crosses the ring's inside: its two ends only
+            if (c.x - r >= 0) visit_cube(c.x - r, j, k);
+            if (r > 0 && c.x + r < n_.x) visit_cube(c.x + r, j, k);
+          }
+        }
+    }
+  }
+
+ private:
+  glm::ivec3 cube_of(const glm::dvec3& x) const {
+    return glm::clamp(glm::ivec3(glm::floor((x - lo_) / cell_)), glm::ivec3(0), n_ - 1);
+  }
+  size_t index(const glm::ivec3& c) const { return (size_t(c.z) * size_t(n_.y) + size_t(c.y)) * size_t(n_.x) + size_t(c.x); }
+  const std::vector<glm::dvec3>& P_;
+  const std::vector<double>& h_;
+  glm::dvec3 lo_;
+  double cell_ = 1, h_min_ = 0;
+  glm::ivec3 n_{1};
+  Grouped cubes_;
+};
+
+}  // namespace
+
+std::vector<glm::dvec3> interior_points(const std::vector<glm::dvec3>& points,
+                                        const std::vector<std::array<uint32_t, 3>>& triangles,
+                                        const InteriorPointOptions& options) {
+  if (!(options.grading > 0 && options.cell > 0 && options.grading * options.cell >= 1 && options.clearance >= 0))
+    throw std::invalid_argument("interior_points: grading and cell must be positive with grading x cell >= 1, "
+                                "clearance non-negative");
+  if (triangles.empty()) return {};
+  // The surface's vertices, numbered locally, and their mean edge lengths.
+  std::vector<uint32_t> local(points.size(), UINT32_MAX);
+  std::vector<glm::dvec3> P;
+  std::vector<std::array<uint32_t, 3>> tri(triangles.size());
+  for (size_t t = 0; t < triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      uint32_t& l = local[triangles[t][size_t(k)]];
+      if (l == UINT32_MAX) {
+        l = uint32_t(P.size());
+        P.push_back(points[triangles[t][size_t(k)]]);
+      }
+      tri[t][size_t(k)] = l;
+    }
+  std::vector<double> h(P.size(), 0.0);
+  std::vector<uint32_t> edges(P.size(), 0);
+  double edge_sum = 0;
+  for (const auto& t : tri)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = t[size_t(k)], b = t[size_t((k + 1) % 3)];
+      const double l = glm::length(P[a] - P[b]);
+      h[a] += l, h[b] += l, ++edges[a], ++edges[b];
+      edge_sum += l;
+    }
+  for (size_t v = 0; v < P.size(); ++v) h[v] /= double(edges[v]);
+  const double mean_edge = edge_sum / double(3 * tri.size());
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const auto& p : P) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  if (!(mean_edge > 0) || !std::isfinite(mean_edge)) return {};
+
+  const VertexGrid grid(P, h, 2 * mean_edge, lo, hi);
+  const ParityTest parity(P, tri, 0, 2 * mean_edge, lo, hi);
+  const double g = options.grading;
+  // A cube (centre c, edge L): outside where no surface vertex lies within its corners' reach and its centre is
+  // outside; split while L > cell x s(c), which needs a vertex within L / (grading x cell) <= L of c, so the search
+  // reaches 2 L. A leaf's centre with no vertex within that reach is far inside: kept.
+  enum class Cube { outside, split, leaf };
+  auto classify = [&](const glm::dvec3& c, double L, bool& keep) {
+    double s, d;
+    grid.query(c, g, 2 * L, s, d);
+    keep = false;
+    if (d > 0.8660254037844387 * L && !parity.inside(c)) return Cube::outside;
+    if (L > options.cell * s) return Cube::split;
+    keep = (!std::isfinite(d) || d >= options.clearance * s) && parity.inside(c);
+    return Cube::leaf;
+  };
+  auto child = [](const glm::dvec3& c, double L, int o) {
+    return c + 0.25 * L * glm::dvec3(o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1);
+  };
+  struct Task {
+    glm::dvec3 centre;
+    double edge;
+  };
+  // The octree's top levels in depth-first order, serially; below them each subtree on its own (in parallel), and
+  // the leaves concatenated in the tasks' order: the depth-first order of the whole octree.
+  constexpr int kTopLevels = 3;
+  std::vector<Task> tasks;
+  auto top = [&](auto&& self, const glm::dvec3& c, double L, int depth) -> void {
+    if (depth == kTopLevels) return tasks.push_back({c, L});
+    bool keep;
+    const Cube kind = classify(c, L, keep);
+    if (kind == Cube::outside) return;
+    if (kind == Cube::leaf) return tasks.push_back({c, L});  // (classified again there: the same answer)
+    for (int o = 0; o < 8; ++o) self(self, child(c, L, o), L / 2, depth + 1);
+  };
+  const glm::dvec3 extent = hi - lo;
+  top(top, 0.5 * (lo + hi), 1.0001 * std::max({extent.x, extent.y, extent.z, mean_edge}), 0);
+  std::vector<std::vector<glm::dvec3>> found(tasks.size());
+  tbb::parallel_for(size_t(0), tasks.size(), [&](size_t i) {
+    auto visit = [&](auto&& self, const glm::dvec3& c, double L) -> void {
+      bool keep;
+      const Cube kind = classify(c, L, keep);
+      if (kind == Cube::split)
+        for (int o = 0; o < 8; ++o) self(self, child(c, L, o), L / 2);
+      else if (keep)
+        found[i].push_back(c);
+    };
+    visit(visit, tasks[i].centre, tasks[i].edge);
+  });
+  std::vector<glm::dvec3> out;
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  return out;
+}
+
+}  // namespace cpmesh::mesh
