@@ -2,7 +2,8 @@
 // The tetrahedral mesh of every material, bounded by the interface triangles and conforming to them.
 //
 // Each material is meshed on its own: one TetGen run (-pqAY, refining to the radius-edge bound only: the dihedral
-// bound is the sliver passes' to hold) over the interface triangles that bound it, with the
+// bound is the sliver passes' to hold) over the interface triangles that bound it, starting from points inside it as
+// well (interior_points.h, computed here before the child starts: QualityOptions::interior_points), with the
 // seeds of its components as regions and the seeds of every other material's components as holes (so cavities held
 // by other materials are carved out, not meshed twice), then the sliver passes on its tets: those of smooth.h
 // (improve_tets, split_slivers), then, for the slivers they leave, remesh_slivers.h (the cavity around each meshed

@@ -132,6 +132,9 @@ int main(int argc, char** argv) {
                  "Volume mesh: TetGen runs to aim at, large materials cut into pieces (0: one per thread; 1: one per "
                  "material; cpmesh mesh --volume-runs)")
       ->capture_default_str();
+  bool interior_points = mesh::MeshOptions{}.volume.interior_points;
+  app.add_flag("!--no-interior-points", interior_points,
+               "Volume mesh: TetGen refines from the surface vertices alone (cpmesh mesh --no-interior-points)");
   int repeat = 1;
   app.add_option("--repeat", repeat,
                  "Run each volume this many times, each run followed by its CGAL peer run, then print the medians, "
@@ -204,6 +207,7 @@ int main(int argc, char** argv) {
           options.max_particles = max_particles;
           options.population.seed = seed;
           options.volume.runs = volume_runs;
+          options.volume.interior_points = interior_points;
           const auto t0 = std::chrono::steady_clock::now();
           mesh::MeshResult r;
           try {
@@ -262,7 +266,7 @@ int main(int argc, char** argv) {
               {"settings",
                {{"min_size", min_size}, {"max_size", h_max}, {"only_surfaces", only_surfaces}, {"subcells", rep.subcells},
                 {"band", rep.band_voxels}, {"skin", skin},
-                {"max_particles", max_particles}, {"seed", seed}}}};
+                {"max_particles", max_particles}, {"seed", seed}, {"interior_points", interior_points}}}};
           if (junctions) j["junction_error"] = bench::junction_json(je);
           if (!rep.volume_runs.empty())  // where the volume mesh's time went: the runs go in parallel
             j["volume_runs"] = mesh::volume_runs_json(rep);
