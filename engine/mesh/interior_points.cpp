@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mesh/grouped.h"
+#include "mesh/local_surface.h"
 #include "mesh/parity_test.h"
 
 namespace cpmesh::mesh {
@@ -85,18 +86,9 @@ std::vector<glm::dvec3> interior_points(const std::vector<glm::dvec3>& points,
                                 "clearance non-negative");
   if (triangles.empty()) return {};
   // The surface's vertices, numbered locally, and their mean edge lengths.
-  std::vector<uint32_t> local(points.size(), UINT32_MAX);
-  std::vector<glm::dvec3> P;
-  std::vector<std::array<uint32_t, 3>> tri(triangles.size());
-  for (size_t t = 0; t < triangles.size(); ++t)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t& l = local[triangles[t][size_t(k)]];
-      if (l == UINT32_MAX) {
-        l = uint32_t(P.size());
-        P.push_back(points[triangles[t][size_t(k)]]);
-      }
-      tri[t][size_t(k)] = l;
-    }
+  const LocalSurface surface = local_surface(points, triangles);
+  const std::vector<glm::dvec3>& P = surface.points;
+  const std::vector<std::array<uint32_t, 3>>& tri = surface.triangles;
   std::vector<double> h(P.size(), 0.0);
   std::vector<uint32_t> edges(P.size(), 0);
   double edge_sum = 0;

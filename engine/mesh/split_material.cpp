@@ -16,6 +16,7 @@
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
 #include "mesh/grouped.h"
+#include "mesh/local_surface.h"
 #include "mesh/parity_test.h"
 #include "mesh/quality.h"
 #include "mesh/tetgen.h"
@@ -132,24 +133,15 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   if (odd_edges(boundary) != 0) return refuse("its boundary is not closed");
 
   // The boundary's vertices, numbered locally.
-  std::vector<uint32_t> local(points.size(), UINT32_MAX), global;
-  std::vector<std::array<uint32_t, 3>> tri(boundary.size());
-  for (size_t i = 0; i < boundary.size(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      uint32_t& l = local[boundary[i][size_t(k)]];
-      if (l == UINT32_MAX) {
-        l = uint32_t(global.size());
-        global.push_back(boundary[i][size_t(k)]);
-      }
-      tri[i][size_t(k)] = l;
-    }
+  const LocalSurface surface = local_surface(points, boundary);
+  const std::vector<uint32_t>& global = surface.global;
+  const std::vector<std::array<uint32_t, 3>>& tri = surface.triangles;
+  const std::vector<glm::dvec3>& P = surface.points;
   const size_t n_surface = global.size();
-  std::vector<glm::dvec3> P(n_surface);
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-  for (size_t v = 0; v < n_surface; ++v) {
-    P[v] = points[global[v]];
-    lo = glm::min(lo, P[v]);
-    hi = glm::max(hi, P[v]);
+  for (const auto& p : P) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
   }
   const glm::dvec3 extent = hi - lo;
   // The signed volume of the cone from the box's corner over triangle abc: summed over a closed surface, the volume
