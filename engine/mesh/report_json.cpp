@@ -12,7 +12,8 @@ nlohmann::json volume_runs_json(const MeshReport& rep) {
                     {"tetgen_s", run.tetgen},
                     {"slivers_s", run.slivers},
                     {"tets", run.tets},
-                    {"added_points", run.added_points}});
+                    {"added_points", run.added_points},
+                    {"interior_points", run.interior_points}});
   return runs;
 }
 

@@ -277,7 +277,7 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
   sliver_passes(V, points.size(), job.triangles, options, job.pieces == 1, r.improvement, r.sliver_split);
   r.runs = {{job.material, std::chrono::duration<double>(t1 - t0).count(),
              std::chrono::duration<double>(clock::now() - t1).count(), V.tets.size(), V.points.size() - points.size(),
-             job.piece, job.pieces}};
+             job.piece, job.pieces, interior.size()}};
   V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));
   return r;
 }

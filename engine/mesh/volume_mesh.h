@@ -53,8 +53,9 @@ namespace cpmesh::mesh {
 struct MaterialRunTiming {
   uint16_t material = 0;  // index into labels; UINT16_MAX: the one run over all materials
   double tetgen = 0, slivers = 0;
-  size_t tets = 0, added_points = 0;
+  size_t tets = 0, added_points = 0;  // the points its tets have beyond the surfaces' (and the separators')
   uint16_t piece = 0, pieces = 1;  // of a material cut into pieces (split_material.h)
+  size_t interior_points = 0;  // given to TetGen (interior_points.h): among added_points where it kept them
 };
 
 struct MaterialMeshes {

@@ -146,6 +146,9 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
   // 3 runs asked, but a boundary of a few thousand triangles is not cut (QualityOptions::min_piece_triangles).
   REQUIRE(j["volume_mesh"]["runs"].size() == 1);
   CHECK(j["volume_mesh"]["runs"][0]["pieces"] == 1);
+  // TetGen started from interior points (on by default), and kept them: they are among the points the run added.
+  CHECK(j["volume_mesh"]["runs"][0]["interior_points"].get<size_t>() > 0);
+  CHECK(j["volume_mesh"]["runs"][0]["interior_points"].get<size_t>() <= j["volume_mesh"]["runs"][0]["added_points"].get<size_t>());
   CHECK(j["volume_mesh"]["separator_points"] == 0);
   {
     // The worst tet named in the report is the cell of volume.vtu with the smallest dihedral angle, where it says.
@@ -191,6 +194,20 @@ TEST_CASE("mesh on a small sphere: interface, volume mesh, particles and report 
       sum += s;
     }
     CHECK(sum <= j.at("seconds").at(stage).get<double>() + 1e-9);
+  }
+  {
+    // --no-interior-points: TetGen refines from the surface alone; the same surfaces, about as many tets.
+    const auto plain_out = dir / "plain";
+    const auto plain = run_tool("cpmesh mesh " + vol.string() + " --max-size 2.5 --format ply --no-interior-points -o " +
+                                plain_out.string());
+    REQUIRE(plain.exit_code == 0);
+    std::ifstream plain_json(plain_out / "report.json");
+    const auto p = nlohmann::json::parse(plain_json);
+    CHECK(p["volume_mesh"]["runs"][0]["interior_points"] == 0);
+    CHECK(p["surface"]["triangles"] == j["surface"]["triangles"]);
+    const double ratio = p["volume_mesh"]["tets"].get<double>() / j["volume_mesh"]["tets"].get<double>();
+    CHECK(ratio > 0.8);
+    CHECK(ratio < 1.25);
   }
   const auto bad = run_tool("cpmesh mesh " + vol.string() + " --format xyz -o " + out.string());
   CHECK(bad.exit_code != 0);
