@@ -14,7 +14,7 @@
 // A cube of the octree over the surface's bounding box is split while its edge is over `cell` x s(centre); a leaf's
 // centre is a point where it lies inside the surface (ray parity, mesh/parity_test.h) and no surface vertex lies
 // within clearance x s. grading x cell must be at least 1, so that a cube is only split where a surface vertex lies
-// within its edge of its centre (the search's reach).
+// within its edge of its centre. No points where a vertex's edges all have no length.
 //
 // Inputs:  points     any points; only those the triangles use count
 //          triangles  closed surfaces (a material's boundary; pieces of it or nested ones by parity)
@@ -31,6 +31,7 @@ struct InteriorPointOptions {
   double grading = 0.6;    // s grows by this much per unit of distance from the surface
   double cell = 2.0;       // a cube is split while its edge exceeds cell x s at its centre
   double clearance = 0.7;  // a leaf's centre is kept only where every surface vertex is at least clearance x s away
+                           // (> 0)
 };
 
 std::vector<glm::dvec3> interior_points(const std::vector<glm::dvec3>& points,

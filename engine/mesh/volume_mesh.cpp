@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include "host/host_array.h"
 #include "mesh/child_process.h"
@@ -238,11 +239,12 @@ MaterialMeshes run_job(const std::vector<glm::dvec3>& points, const Job& job, co
                        const std::string& what) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
-  // Interior points here, on the thread pool, which the child must not use. Not for the one run over all interfaces:
-  // their ray parity does not tell one material's inside.
-  const std::vector<glm::dvec3> interior = options.interior_points && job.material != UINT16_MAX
-                                               ? interior_points(points, job.triangles)
-                                               : std::vector<glm::dvec3>{};
+  // Interior points here, on the thread pool, which the child must not use; isolated, so that a thread waiting for
+  // them takes no other run (whole TetGen child and all) meanwhile. Not for the one run over all interfaces: their ray
+  // parity does not tell one material's inside.
+  std::vector<glm::dvec3> interior;
+  if (options.interior_points && job.material != UINT16_MAX)
+    tbb::this_task_arena::isolate([&] { interior = interior_points(points, job.triangles); });
   const std::string bytes = run_in_child(what, [&] {
     Tets V = constrained_quality_in_this_process(points, job.triangles, {}, job.regions, options, job.holes, interior);
     V.points.erase(V.points.begin(), V.points.begin() + std::ptrdiff_t(points.size()));

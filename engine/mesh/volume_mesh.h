@@ -49,7 +49,8 @@
 
 namespace cpmesh::mesh {
 
-// Where one run's time went (seconds): TetGen, then the sliver passes (improve_tets, split_slivers).
+// Where one run's time went (seconds): TetGen (with its interior points' making), then the sliver passes
+// (improve_tets, split_slivers).
 struct MaterialRunTiming {
   uint16_t material = 0;  // index into labels; UINT16_MAX: the one run over all materials
   double tetgen = 0, slivers = 0;

@@ -12,6 +12,8 @@
 
 #include "icosphere.h"
 #include "mesh/interior_points.h"
+#include "mesh/local_surface.h"
+#include "mesh/parity_test.h"
 #include "mesh/quality.h"
 #include "mesh/tetgen.h"
 #include "mesh/volume_mesh.h"
@@ -56,7 +58,66 @@ double nearest_other(const std::vector<glm::dvec3>& P, size_t i) {
   return best;
 }
 
+// interior_points.h written out plainly: one depth-first recursion, the sizing by brute force, the same parity test.
+std::vector<glm::dvec3> reference_points(const std::vector<glm::dvec3>& points,
+                                         const std::vector<std::array<uint32_t, 3>>& triangles,
+                                         const mesh::InteriorPointOptions& options) {
+  const mesh::LocalSurface surface = mesh::local_surface(points, triangles);
+  const Sizing sizing(surface.points, surface.triangles);
+  double edge_sum = 0;
+  for (const auto& t : surface.triangles)
+    for (int k = 0; k < 3; ++k) edge_sum += glm::length(surface.points[t[size_t(k)]] - surface.points[t[size_t((k + 1) % 3)]]);
+  const double mean_edge = edge_sum / double(3 * surface.triangles.size());
+  glm::dvec3 lo(1e300), hi(-1e300);
+  for (const auto& p : surface.points) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const mesh::ParityTest parity(surface.points, surface.triangles, 0, 2 * mean_edge, lo, hi);
+  std::vector<glm::dvec3> out;
+  auto visit = [&](auto&& self, const glm::dvec3& c, double L) -> void {
+    double s, d;
+    sizing.at(c, options.grading, s, d);
+    if (d > 0.8660254037844387 * L && !parity.inside(c)) return;
+    if (L > options.cell * s) {
+      for (int o = 0; o < 8; ++o) self(self, c + 0.25 * L * glm::dvec3(o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1), L / 2);
+      return;
+    }
+    if (d >= options.clearance * s && parity.inside(c)) out.push_back(c);
+  };
+  const glm::dvec3 extent = hi - lo;
+  visit(visit, 0.5 * (lo + hi), 1.0001 * std::max({extent.x, extent.y, extent.z, mean_edge}));
+  return out;
+}
+
+// Two surfaces as one list of points and triangles.
+Sphere joined(const Sphere& a, const Sphere& b) {
+  Sphere s = a;
+  s.points.insert(s.points.end(), b.points.begin(), b.points.end());
+  for (auto t : b.triangles) {
+    for (auto& v : t) v += uint32_t(a.points.size());
+    s.triangles.push_back(t);
+  }
+  return s;
+}
+
 }  // namespace
+
+TEST_CASE("interior_points: the plain recursion's points, in its order, on uneven surfaces and boxes") {
+  // A jittered ellipsoid (a flat box: queries from cubes beyond the grid); a coarse sphere (edges about 2.6) with a
+  // fine cavity off its centre (about 0.16: where s comes from a cavity vertex farther than the nearest outer one)
+  // and a small sphere far off.
+  Sphere ellipsoid = icosphere(10.0, 4, false, 0.2, 7);
+  for (auto& p : ellipsoid.points) p *= glm::dvec3(1.0, 0.7, 0.35);
+  Sphere fine = icosphere(2.5, 4, true);
+  for (auto& p : fine.points) p += glm::dvec3(3.0, 0.0, 0.0);
+  Sphere far_one = icosphere(1.0, 2, false);
+  for (auto& p : far_one.points) p += glm::dvec3(30.0, 4.0, -3.0);
+  const Sphere cavity = joined(joined(icosphere(10.0, 2, false, 0.3, 3), fine), far_one);
+  for (const Sphere* s : {static_cast<const Sphere*>(&ellipsoid), &cavity})
+    for (const auto& options : {mesh::InteriorPointOptions{}, mesh::InteriorPointOptions{0.9, 1.2, 0.5}}) {
+      const auto points = mesh::interior_points(s->points, s->triangles, options);
+      CHECK(points.size() > 20);
+      CHECK(points == reference_points(s->points, s->triangles, options));
+    }
+}
 
 TEST_CASE("interior_points: inside a sphere, clear of its vertices by the sizing, graded, the same on any thread count") {
   const Sphere s = icosphere(10.0, 4, false);  // edges about 0.66
@@ -68,7 +129,13 @@ TEST_CASE("interior_points: inside a sphere, clear of its vertices by the sizing
   size_t near = 0, far = 0;
   for (size_t i = 0; i < points.size(); ++i) {
     const glm::dvec3& p = points[i];
-    CHECK(glm::length(p) < 10.0);
+    // Inside the polyhedron (convex): behind every face's plane, not merely inside the circumscribed sphere.
+    bool behind_all = true;
+    for (const auto& t : s.triangles) {
+      const glm::dvec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+      behind_all = behind_all && glm::dot(glm::cross(b - a, c - a), p - a) < 0;
+    }
+    CHECK(behind_all);
     double size, d;
     sizing.at(p, options.grading, size, d);
     CHECK(d >= options.clearance * size);
@@ -96,14 +163,9 @@ TEST_CASE("interior_points: inside a sphere, clear of its vertices by the sizing
 }
 
 TEST_CASE("interior_points: between nested spheres only; unused points ignored; no triangles, no points; bad options refused") {
-  const Sphere outer = icosphere(10.0, 3, false), inner = icosphere(5.0, 3, true);
-  std::vector<glm::dvec3> P = outer.points;
-  std::vector<std::array<uint32_t, 3>> T = outer.triangles;
-  for (auto t : inner.triangles) {
-    for (auto& v : t) v += uint32_t(outer.points.size());
-    T.push_back(t);
-  }
-  P.insert(P.end(), inner.points.begin(), inner.points.end());
+  const Sphere shell = joined(icosphere(10.0, 3, false), icosphere(5.0, 3, true));
+  const std::vector<glm::dvec3>& P = shell.points;
+  const std::vector<std::array<uint32_t, 3>>& T = shell.triangles;
   const auto points = mesh::interior_points(P, T);
   REQUIRE(points.size() > 20);
   for (const auto& p : points) {
@@ -120,8 +182,16 @@ TEST_CASE("interior_points: between nested spheres only; unused points ignored; 
   bad.grading = 0.4;  // x cell 2 < 1: a cube could need splitting with no vertex within the search's reach
   CHECK_THROWS_AS(mesh::interior_points(P, T, bad), std::invalid_argument);
   bad = {};
-  bad.clearance = -1;
+  bad.clearance = 0;  // a point could fall on a surface vertex
   CHECK_THROWS_AS(mesh::interior_points(P, T, bad), std::invalid_argument);
+  // A vertex whose edges have no length (a collapsed component): no points rather than cubes split to rounding.
+  std::vector<glm::dvec3> collapsed = P;
+  const uint32_t at = uint32_t(collapsed.size());
+  collapsed.insert(collapsed.end(), 4, glm::dvec3(1.0, 7.0, 0.0));
+  std::vector<std::array<uint32_t, 3>> with_collapsed = T;
+  for (const auto& t : std::vector<std::array<uint32_t, 3>>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
+    with_collapsed.push_back({at + t[0], at + t[1], at + t[2]});
+  CHECK(mesh::interior_points(collapsed, with_collapsed).empty());
 }
 
 TEST_CASE("constrained_quality with interior points: the surface kept, the points meshed, the sphere filled") {
