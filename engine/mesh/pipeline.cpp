@@ -28,7 +28,6 @@ namespace {
 constexpr double kOffFeatureShare = 0.25;
 }  // namespace
 
-
 io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups) {
   io::LabelVolume out = volume;
   if (groups.empty()) return out;

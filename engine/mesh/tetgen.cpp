@@ -212,14 +212,14 @@ Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
       compact[v] = uint32_t(used.size());
       used.push_back(v);
     }
-  std::vector<glm::dvec3> used_points;
-  for (uint32_t v : used) used_points.push_back(points[v]);
-  tetgenio in;
   // The interior points after the surface's: TetGen keeps the input points' order, so they cannot shift a surface
   // vertex (one it drops, outside every region, only shifts the points after it, all of them new to the caller).
-  std::vector<glm::dvec3> given = used_points;
-  given.insert(given.end(), interior.begin(), interior.end());
-  set_points(in, given);
+  std::vector<glm::dvec3> input_points;
+  input_points.reserve(used.size() + interior.size());
+  for (uint32_t v : used) input_points.push_back(points[v]);
+  input_points.insert(input_points.end(), interior.begin(), interior.end());
+  tetgenio in;
+  set_points(in, input_points);
   in.numberoffacets = int(triangles.size());
   in.facetlist = new tetgenio::facet[triangles.size()];
   in.facetmarkerlist = new int[triangles.size()];
@@ -260,7 +260,7 @@ Tets constrained_quality_in_this_process(const std::vector<glm::dvec3>& points,
   // which happens when a material's boundary is not closed and its region leaks into the outside. The caller's
   // triangles and fixed vertices would then index the wrong points.
   size_t kept = 0;
-  while (kept < used.size() && kept < t.points.size() && t.points[kept] == used_points[kept]) ++kept;
+  while (kept < used.size() && kept < t.points.size() && t.points[kept] == input_points[kept]) ++kept;
   if (kept < used.size())
     throw std::runtime_error("TetGen dropped surface vertices (" + std::to_string(used.size()) + " given, the first " +
                              std::to_string(kept) + " kept in place): a material's boundary is not closed, so its "

@@ -12,9 +12,24 @@
 using namespace cpmesh;
 using fields::FeatureKind;
 
+namespace {
+
+// The 64^3 wedge ball and its fields, built once for both tests.
+struct WedgeBall {
+  test::FieldsVolume volume = test::make_volume(io::SynthShape::wedge_ball, 64);
+  fields::FieldsResult fields = fields::build_fields(volume.grid, volume.labels.data());
+};
+
+const WedgeBall& wedge_ball_64() {
+  static const WedgeBall built;
+  return built;
+}
+
+}  // namespace
+
 TEST_CASE("protect_junctions: the band around the wedge ball's axis curve") {
-  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 64);
-  const auto F = fields::build_fields(wb.grid, wb.labels.data());
+  const auto& wb = wedge_ball_64().volume;
+  const auto& F = wedge_ball_64().fields;
   const auto& E = F.embedding;
   // Materials are label indices here (labels 0..4). The 1|2 wedge plane is the half-plane at angle 0.3 + 120 deg
   // through the z axis; the axis itself is the (1,2,3) curve from the north pole down to the inner ball.
@@ -56,8 +71,8 @@ TEST_CASE("protect_junctions: the band around the wedge ball's axis curve") {
 }
 
 TEST_CASE("drop_off_feature: particles off their feature go, those on it stay in order, quadruple points always stay") {
-  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 64);
-  const auto F = fields::build_fields(wb.grid, wb.labels.data());
+  const auto& wb = wedge_ball_64().volume;
+  const auto& F = wedge_ball_64().fields;
   const auto& E = F.embedding;
   const int plane = E.feature_index(FeatureKind::interface, {1, 2, 0xffff, 0xffff});
   const int axis = E.feature_index(FeatureKind::triple_curve, {1, 2, 3, 0xffff});
