@@ -15,7 +15,9 @@ namespace cpmesh::mesh {
 
 namespace {
 
-// The surface's vertices in cubes of one edge (compressed rows), searched ring by ring around a point.
+// The surface's vertices in cubes of one edge (compressed rows), and over them a pyramid of blocks of 2^l cubes
+// (l = 1, 2, ... up to one block) with the smallest h of each block's vertices: a query skips a block where no
+// vertex in it can lower s or d, which bounds its work where the surface's edge lengths differ a lot.
 class VertexGrid {
  public:
   VertexGrid(const std::vector<glm::dvec3>& P, const std::vector<double>& h, double cell, const glm::dvec3& lo,
@@ -30,53 +32,122 @@ class VertexGrid {
     n_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
     h_min_ = *std::min_element(h.begin(), h.end());
     cubes_ = group_by_key(size_t(n_.x) * size_t(n_.y) * size_t(n_.z), P.size(),
-                          [&](size_t v, auto&& add) { add(index(cube_of(P[v]))); });
-  }
-
-  // s = min over the vertices v of (h_v + grading |x - v|) and d = min |x - v|. Rings of cubes around x's (x
-  // clamped into the grid: distances to the grid's vertices only shrink) until no farther vertex can lower either.
-  // Each query scans about ((s - h_min) / grading / cube)^3 cubes: where the surface's edges differ by a factor of
-  // 100 or more, queries near its coarse parts grow slow (2.6 s for a sphere of edges 160 times its neighbour's).
-  void query(const glm::dvec3& x, double grading, double& s, double& d) const {
-    s = d = std::numeric_limits<double>::infinity();
-    const glm::ivec3 c = cube_of(x);
-    for (int r = 0;; ++r) {
-      // Every vertex in ring r (cubes at Chebyshev distance r) lies at least (r - 1) cubes from x.
-      const double nearest = (r - 1) * cell_;
-      if (nearest >= d && h_min_ + grading * nearest >= s) break;
-      if (r > 0 && c.x - r < 0 && c.y - r < 0 && c.z - r < 0 && c.x + r >= n_.x && c.y + r >= n_.y && c.z + r >= n_.z)
-        break;  // the ring lies wholly outside the grid
-      const glm::ivec3 lo = glm::max(c - r, glm::ivec3(0)), hi = glm::min(c + r, n_ - 1);
-      auto visit_cube = [&](int i, int j, int k) {
-        for (uint32_t v : cubes_[index({i, j, k})]) {
-          const double l = glm::length(P_[v] - x);
-          d = std::min(d, l);
-          s = std::min(s, h_[v] + grading * l);
+                          [&](size_t v, auto&& add) { add(index(n_, cube_of(P[v]))); });
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    glm::ivec3 dims = n_;
+    while (dims != glm::ivec3(1)) {
+      const glm::ivec3 below = dims;
+      dims = (dims + 1) / 2;
+      Level level{dims, std::vector<double>(size_t(dims.x) * size_t(dims.y) * size_t(dims.z), inf)};
+      if (levels_.empty()) {
+        for (size_t v = 0; v < P.size(); ++v) {
+          double& m = level.least_h[index(dims, cube_of(P[v]) / 2)];
+          m = std::min(m, h[v]);
         }
-      };
-      for (int k = lo.z; k <= hi.z; ++k)
-        for (int j = lo.y; j <= hi.y; ++j) {
-          if (std::abs(k - c.z) == r || std::abs(j - c.y) == r) {
-            for (int i = lo.x; i <= hi.x; ++i) visit_cube(i, j, k);
-          } else {  // the row crosses the ring's inside: its two ends only
-            if (c.x - r >= 0) visit_cube(c.x - r, j, k);
-            if (r > 0 && c.x + r < n_.x) visit_cube(c.x + r, j, k);
-          }
-        }
+      } else {
+        const Level& fine = levels_.back();
+        for (int k = 0; k < below.z; ++k)
+          for (int j = 0; j < below.y; ++j)
+            for (int i = 0; i < below.x; ++i) {
+              double& m = level.least_h[index(dims, glm::ivec3(i, j, k) / 2)];
+              m = std::min(m, fine.least_h[index(below, {i, j, k})]);
+            }
+      }
+      levels_.push_back(std::move(level));
     }
   }
 
+  // s = min over the vertices v of (h_v + grading |x - v|) and d = min |x - v|: first the cubes around x's (x clamped
+  // into the grid) ring by ring, up to kRings, until no farther vertex can lower either by the smallest h of all;
+  // then, where that bound is too weak (near coarse parts of a surface whose edges differ a lot), down the pyramid
+  // from its top block, nearer blocks first, past the blocks and cubes where no vertex can lower either by their own
+  // smallest h. Exact: the same s and d as over all vertices. Rings alone scanned about ((s - h_min) / grading /
+  // cube)^3 cubes a query: a sphere of edges about 10 beside one of 0.033 took 2.0 s, 0.11 s now (with the parity
+  // test's levels); the head's materials the same points, 0.39 s against 0.51 for material 4 (2 cores).
+  void query(const glm::dvec3& x, double grading, double& s, double& d) const {
+    s = d = std::numeric_limits<double>::infinity();
+    const glm::ivec3 c = cube_of(x);
+    auto scan = [&](const glm::ivec3& cube) {
+      for (uint32_t v : cubes_[index(n_, cube)]) {
+        const double l = glm::length(P_[v] - x);
+        d = std::min(d, l);
+        s = std::min(s, h_[v] + grading * l);
+      }
+    };
+    constexpr int kRings = 2;
+    for (int r = 0; r <= kRings + 1; ++r) {
+      // Every vertex in ring r (cubes at Chebyshev distance r) lies at least (r - 1) cubes from x.
+      const double nearest = (r - 1) * cell_;
+      if (nearest >= d && h_min_ + grading * nearest >= s) return;
+      if (r > 0 && c.x - r < 0 && c.y - r < 0 && c.z - r < 0 && c.x + r >= n_.x && c.y + r >= n_.y && c.z + r >= n_.z)
+        return;  // the ring lies wholly outside the grid
+      if (r > kRings) break;
+      const glm::ivec3 lo = glm::max(c - r, glm::ivec3(0)), hi = glm::min(c + r, n_ - 1);
+      for (int k = lo.z; k <= hi.z; ++k)
+        for (int j = lo.y; j <= hi.y; ++j) {
+          if (std::abs(k - c.z) == r || std::abs(j - c.y) == r) {
+            for (int i = lo.x; i <= hi.x; ++i) scan({i, j, k});
+          } else {  // the row crosses the ring's inside: its two ends only
+            if (c.x - r >= 0) scan({c.x - r, j, k});
+            if (r > 0 && c.x + r < n_.x) scan({c.x + r, j, k});
+          }
+        }
+    }
+    // Whether a box of `size` cubes at `corner` (in cubes) whose vertices have h of at least least_h may hold a
+    // vertex that lowers s or d; the distances shrunk by a relative 1e-9 against rounding.
+    auto may_lower = [&](const glm::ivec3& corner, int size, double least_h) {
+      if (least_h == std::numeric_limits<double>::infinity()) return false;  // no vertex
+      const glm::dvec3 box_lo = lo_ + glm::dvec3(corner) * cell_, box_hi = box_lo + double(size) * cell_;
+      const double dist = (1.0 - 1e-9) * glm::length(glm::max(glm::max(box_lo - x, x - box_hi), glm::dvec3(0.0)));
+      return dist < d || least_h + grading * dist < s;
+    };
+    auto descend = [&](auto&& self, int l, const glm::ivec3& node) -> void {
+      const Level& level = levels_[size_t(l) - 1];
+      const double least_h = level.least_h[index(level.dims, node)];
+      if (!may_lower(node * (1 << l), 1 << l, least_h)) return;
+      const glm::ivec3 below = l == 1 ? n_ : levels_[size_t(l) - 2].dims;
+      // The children in the pyramid's level below (cubes at l = 1), the one nearest x's first.
+      glm::ivec3 kids[8];
+      double far[8];
+      int count = 0;
+      for (int o = 0; o < 8; ++o) {
+        const glm::ivec3 kid = 2 * node + glm::ivec3(o & 1, (o >> 1) & 1, o >> 2);
+        if (glm::any(glm::greaterThanEqual(kid, below))) continue;
+        const double f = glm::length(lo_ + (glm::dvec3(kid) + 0.5) * double(1 << (l - 1)) * cell_ - x);
+        int i = count++;  // insertion by the distance of its middle
+        for (; i > 0 && far[i - 1] > f; --i) far[i] = far[i - 1], kids[i] = kids[i - 1];
+        far[i] = f, kids[i] = kid;
+      }
+      for (int i = 0; i < count; ++i) {
+        const glm::ivec3& kid = kids[i];
+        if (l > 1) {
+          self(self, l - 1, kid);
+        } else if (glm::any(glm::greaterThan(glm::abs(kid - c), glm::ivec3(kRings))) && may_lower(kid, 1, least_h)) {
+          scan(kid);  // (the rings are done)
+        }
+      }
+    };
+    if (!levels_.empty()) descend(descend, int(levels_.size()), glm::ivec3(0));
+  }
+
  private:
+  struct Level {
+    glm::ivec3 dims;
+    std::vector<double> least_h;  // per block: the smallest h of its vertices (infinity: none)
+  };
   glm::ivec3 cube_of(const glm::dvec3& x) const {
     return glm::clamp(glm::ivec3(glm::floor((x - lo_) / cell_)), glm::ivec3(0), n_ - 1);
   }
-  size_t index(const glm::ivec3& c) const { return (size_t(c.z) * size_t(n_.y) + size_t(c.y)) * size_t(n_.x) + size_t(c.x); }
+  static size_t index(const glm::ivec3& dims, const glm::ivec3& c) {
+    return (size_t(c.z) * size_t(dims.y) + size_t(c.y)) * size_t(dims.x) + size_t(c.x);
+  }
   const std::vector<glm::dvec3>& P_;
   const std::vector<double>& h_;
   glm::dvec3 lo_;
   double cell_ = 1, h_min_ = 0;
   glm::ivec3 n_{1};
   Grouped cubes_;
+  std::vector<Level> levels_;  // levels_[l - 1]: blocks of 2^l cubes a side
 };
 
 }  // namespace

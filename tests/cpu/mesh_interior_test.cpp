@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <set>
 #include <stdexcept>
 
@@ -117,6 +118,56 @@ TEST_CASE("interior_points: the plain recursion's points, in its order, on uneve
       CHECK(points.size() > 20);
       CHECK(points == reference_points(s->points, s->triangles, options));
     }
+}
+
+TEST_CASE("interior_points and ParityTest: a coarse sphere around a fine cavity, edges 260 times apart") {
+  // The coarse sphere's 20 triangles (edges about 42) span thousands of the cavity's cells (edges about 0.16): the
+  // sizing's query goes down its pyramid and the parity test lists them in its coarser levels.
+  Sphere fine = icosphere(2.5, 4, true);
+  for (auto& p : fine.points) p += glm::dvec3(5.0, 1.0, 0.0);
+  const Sphere s = joined(icosphere(40.0, 0, false), fine);
+  const mesh::InteriorPointOptions options;
+  const auto points = mesh::interior_points(s.points, s.triangles, options);
+  CHECK(points.size() > 100);
+  CHECK(points == reference_points(s.points, s.triangles, options));
+
+  // The parity test against every triangle by brute force (the same arithmetic: the same answer, bit for bit), on
+  // points near the cavity, across the coarse sphere, and beyond it.
+  glm::dvec3 lo(1e300), hi(-1e300);
+  for (const auto& p : s.points) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const mesh::ParityTest parity(s.points, s.triangles, 0, 0.32, lo, hi);
+  const double nudge = 1e-9 * std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1.0});
+  auto brute = [&](const glm::dvec3& q) {
+    const double u = q.y + 0.7071067811865476 * nudge, v = q.z + 0.5772156649015329 * nudge;
+    if (u < lo.y || v < lo.z || u > hi.y || v > hi.z) return false;
+    bool in = false;
+    for (const auto& t : s.triangles) {
+      const glm::dvec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+      const double d = (b.y - a.y) * (c.z - a.z) - (c.y - a.y) * (b.z - a.z);
+      if (d == 0) continue;
+      const double bs = ((u - a.y) * (c.z - a.z) - (c.y - a.y) * (v - a.z)) / d;
+      const double bt = ((b.y - a.y) * (v - a.z) - (u - a.y) * (b.z - a.z)) / d;
+      if (bs < 0 || bt < 0 || bs + bt > 1) continue;
+      in ^= a.x + bs * (b.x - a.x) + bt * (c.x - a.x) > q.x;
+    }
+    return in;
+  };
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> near(-3.0, 3.0), across(-45.0, 45.0);
+  int inside = 0, mismatched = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const glm::dvec3 q = i % 2 ? glm::dvec3(5.0 + near(rng), 1.0 + near(rng), near(rng))
+                               : glm::dvec3(across(rng), across(rng), across(rng));
+    const bool in = parity.inside(q);
+    inside += in;
+    mismatched += in != brute(q);
+  }
+  CHECK(mismatched == 0);
+  CHECK(inside > 5000);
+  CHECK(!parity.inside({5.0, 1.0, 0.0}));  // in the cavity
+  CHECK(parity.inside({5.0, 1.0, 3.0}));   // just above it
+  CHECK(parity.inside({-20.0, 0.0, 0.0}));
+  CHECK(!parity.inside({0.0, 0.0, 39.0}));  // beyond the coarse sphere's flat face (its icosahedron: inradius 30)
 }
 
 TEST_CASE("interior_points: inside a sphere, clear of its vertices by the sizing, graded, the same on any thread count") {
