@@ -23,6 +23,7 @@ namespace {
 
 constexpr uint32_t kInf = ~0u;   // the infinite vertex
 constexpr uint32_t kNone = ~0u;  // no reservation, no tet
+constexpr uint32_t kUnused = kNone - 1;  // Tet::next of a slot handed to a lane and not yet used
 
 uint32_t load(const uint32_t& x) { return std::atomic_ref<const uint32_t>(x).load(std::memory_order_relaxed); }
 void store(uint32_t& x, uint32_t v) { std::atomic_ref<uint32_t>(x).store(v, std::memory_order_relaxed); }
@@ -106,7 +107,8 @@ class Builder {
     std::array<uint32_t, 4> v;    // corners; an infinite tet has kInf at one
     std::array<uint32_t, 4> n;    // (tet * 4 + corner) across the face opposite each corner
     uint32_t reserve = kNone;     // the lowest batch place that reserved it this round
-    uint32_t next = kNone;        // kNone while alive; once dead, a tet made when it died (hints go on from there)
+    uint32_t next = kNone;        // kNone while alive; once dead, a tet made when it died (hints go on from there);
+                                  // kUnused: a lane's slot not yet used
   };
   std::vector<Tet> T;
   uint32_t count = 0;  // tets made (alive or dead)
@@ -224,7 +226,7 @@ class Builder {
   }
 
   // Replaces w's cavity by the tets joining its point to the cavity's boundary. Only w's reserved tets are read or
-  // written; the tets beyond the cavity's count go to slots base, base + 1, ...
+  // written; the tets beyond the cavity's count go to slots base, base + 1, ... (unused or fresh ones)
   void commit(const Work& w, uint32_t base, Scratch& s) {
     const uint32_t qi = w.point;
     s.made.clear();
@@ -287,6 +289,7 @@ class Builder {
     for (size_t k = 0; k < nb; ++k) {
       const uint32_t t = s.slot[k], c = w.border[k].second;
       T[t].v = s.made[k];
+      T[t].next = kNone;  // (a slot from its lane's block was kUnused)
       T[t].n[c] = s.outside[k];
       across(s.outside[k]) = t * 4 + c;
     }
@@ -389,6 +392,8 @@ class Builder {
 
 
 constexpr uint64_t kOrderSeed = 0x5eed;
+constexpr size_t kShare = 256, kMaxLanes = 1024;  // the rounds' lanes (DelaunayMesh::Impl::run)
+constexpr uint32_t kLaneBlock = 256;             // the slots a lane takes at a time
 
 }  // namespace
 
@@ -506,7 +511,9 @@ void DelaunayMesh::Impl::build() {
   for (uint32_t i = 0; i < points.size(); ++i)
     if (meshed[i]) order.push_back(i);
   std::shuffle(order.begin(), order.end(), std::mt19937_64(kOrderSeed));
-  B->T.reserve(size_t(7.0 * double(points.size())) + 64);  // about 6.5 tets per point, a few dead
+  // About 6.5 tets per point, a few dead, and the lanes' blocks' unused slots.
+  B->T.reserve(size_t(7.0 * double(points.size())) + 64 +
+               (std::min(points.size() / kShare, kMaxLanes) + 2) * size_t(kLaneBlock));
   std::array<uint32_t, 4> first;
   {
     size_t found = 0;
@@ -545,7 +552,12 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
   // tet its predecessor in the lane made a round before, a few steps away, on the same thread (a static partition),
   // and the round's points are spread over the whole level, so their cavities rarely meet. Lanes: one per kShare
   // points meshed (more, and cavities meet so often that the put-off points pile up), at most kMaxLanes.
-  constexpr size_t kShare = 256, kMaxLanes = 1024;
+  // The tets a lane's points make beyond their cavities' slots come from the lane's own block of kLaneBlock slots
+  // (lane k of every level: the same stretch of the curve), so that tets near each other in space lie near each
+  // other in memory: the final check and the users of the tets miss the cache less (1.37 M surface points of the
+  // paper-size head, two threads: the check 4.0 / 2.9 -> 2.5 / 2.3 s in two runs each, tets() on one thread 0.81 ->
+  // 0.59 s; the whole build a few percent, within the machine's noise). The points put off from an earlier level
+  // share one more block.
   auto morton = [&](uint32_t i) {
     uint64_t code = 0;
     for (int a = 0; a < 3; ++a) {
@@ -564,6 +576,9 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
   std::vector<uint32_t> queue;
   std::vector<uint8_t> won, duplicate;
   std::vector<uint32_t> base;  // the level's places in the order they are taken
+  std::vector<uint32_t> lane_of;  // per place in the level: its lane
+  std::vector<std::array<uint32_t, 2>> block(kMaxLanes + 1, {0, 0});  // per lane: its next free slot, its block's end
+  std::vector<std::array<uint32_t, 2>> fresh;  // the blocks taken in a round
   size_t inserted = first_level;
   for (size_t begin = first_level; begin < order.size();) {
     const size_t end = std::min(order.size(), begin < 1024 ? 1024 : 2 * begin);
@@ -574,10 +589,14 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
     for (auto& w : waiting) w.second = kNone;  // its place was in the level before
     const size_t lanes = begin < 1024 ? 1 : std::clamp<size_t>(inserted / kShare, 1, kMaxLanes);
     queue.clear();
+    lane_of.resize(level.size());
     for (size_t r = 0; r * lanes < level.size() + lanes; ++r)
       for (size_t lane = 0; lane < lanes; ++lane) {
         const size_t first_place = lane * level.size() / lanes, next_lane = (lane + 1) * level.size() / lanes;
-        if (first_place + r < next_lane) queue.push_back(uint32_t(first_place + r));
+        if (first_place + r < next_lane) {
+          queue.push_back(uint32_t(first_place + r));
+          lane_of[first_place + r] = uint32_t(lane);
+        }
       }
     for (size_t taken = 0; taken < queue.size() || (end == order.size() && !waiting.empty());) {
       const size_t cap = lanes;
@@ -646,12 +665,23 @@ bool DelaunayMesh::Impl::run(size_t first_level, std::vector<uint32_t>* made_tet
       });
       base.resize(batch.size());
       uint32_t made = b.count;
+      fresh.clear();
       for (size_t j = 0; j < batch.size(); ++j) {
         base[j] = made;
-        if (won[j] && batch[j].border.size() > batch[j].cavity.size())
-          made += uint32_t(batch[j].border.size() - batch[j].cavity.size());
+        if (!won[j] || batch[j].border.size() <= batch[j].cavity.size()) continue;
+        const uint32_t extra = uint32_t(batch[j].border.size() - batch[j].cavity.size());
+        auto& [next, end] = block[batch[j].place == kNone ? kMaxLanes : lane_of[batch[j].place]];
+        if (end - next < extra) {  // the rest of the lane's block stays unused
+          next = made;
+          end = made = made + std::max(kLaneBlock, extra);
+          fresh.push_back({next, end});
+        }
+        base[j] = next;
+        next += extra;
       }
       b.grow(made);
+      for (const auto& [first, end] : fresh)
+        for (uint32_t t = first; t < end; ++t) b.T[t].next = kUnused;
       tbb::parallel_for(tbb::blocked_range<size_t>(0, batch.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
         Scratch& s = scratch.local();
         for (size_t j = r.begin(); j < r.end(); ++j)
