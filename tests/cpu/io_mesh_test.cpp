@@ -2,12 +2,11 @@
 // counts and tags they should; bad meshes are refused without leaving a file.
 #include <doctest/doctest.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include "scratch_dir.h"
 #include "io/error.h"
 #include "io/mesh_readers.h"
 #include "io/mesh_writers.h"
@@ -17,11 +16,7 @@ using namespace cpmesh::io;
 
 namespace {
 
-std::string tmp(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("cpmesh_mesh_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return (d / name).string();
-}
+std::string tmp(const std::string& name) { return (cpmesh::test::scratch_dir("io_mesh") / name).string(); }
 
 std::string read_all(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

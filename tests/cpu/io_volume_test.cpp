@@ -2,12 +2,11 @@
 // permutations/flips, and every bad-input case of issue 4 with the file and field named in the message.
 #include <doctest/doctest.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "scratch_dir.h"
 #include "io/compression.h"
 #include "io/error.h"
 #include "io/inrimage.h"
@@ -21,11 +20,7 @@ using namespace cpmesh::io;
 
 namespace {
 
-fs::path temp_dir() {
-  const fs::path d = fs::temp_directory_path() / ("cpmesh_io_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir() { return cpmesh::test::scratch_dir("io_volume"); }
 
 std::string tmp(const std::string& name) { return (temp_dir() / name).string(); }
 

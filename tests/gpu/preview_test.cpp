@@ -8,6 +8,7 @@
 #include <zlib.h>
 
 #include "gpu_fixture.h"
+#include "scratch_dir.h"
 #include "io/png.h"
 #include "ref/raster.h"
 #include "render/preview.h"
@@ -45,7 +46,7 @@ TEST_CASE("PNG writer: signature, header and pixels read back") {
   const uint32_t w = 7, h = 5;
   std::vector<uint32_t> rgba(w * h);
   for (uint32_t i = 0; i < rgba.size(); ++i) rgba[i] = 0xff000000u | (i * 2654435761u & 0xffffff);
-  const auto path = std::filesystem::temp_directory_path() / "cpmesh_png_test.png";
+  const auto path = test::scratch_dir("png") / "test.png";
   io::write_png(path.string(), w, h, rgba);
   std::ifstream f(path, std::ios::binary);
   const std::string png((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
