@@ -10,6 +10,7 @@
 #include <span>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -230,6 +231,17 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
   return report;
 }
 
+double hashed_normal(uint64_t key) {
+  auto mix = [](uint64_t x) {  // splitmix64's finaliser
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+  };
+  const uint64_t a = mix(key), b = mix(key ^ 0x9e3779b97f4a7c15ull);
+  const double u1 = (double(a >> 11) + 0.5) * 0x1p-53, u2 = double(b >> 11) * 0x1p-53;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+}
+
 TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
                               size_t fixed, double target_deg, double max_radius_edge, int passes) {
   TetImproveReport report;
@@ -252,7 +264,8 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     if (banded && cosine[t] > target_cosine + 1e-9) return false;
     return dihedral_from_cosine(cosine[t]) < target;
   };
-  auto at_or_above = [&](uint32_t t) { return !std::isnan(cosine[t]) && !below(t); };
+  // Below the target, or with no angle (a NaN: a flat tet's): a tet to mend.
+  auto to_mend = [&](uint32_t t) { return std::isnan(cosine[t]) || below(t); };
   auto worst_angle = [&] {
     return cosine.empty() ? M_PI : dihedral_from_cosine(*std::min_element(cosine.begin(), cosine.end()));
   };
@@ -294,69 +307,108 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     }
     return r;
   };
-  std::mt19937 rng(12345);
-  std::normal_distribution<double> n01;
-  std::vector<uint32_t> mine;
+  // A vertex's move: the candidates (its neighbours' centroid, then shrinking random steps around the best so far),
+  // the best kept. Reads the positions of v's tets' other vertices and writes P[v] and the cosines of v's tets only.
+  // The random steps are a hash of (pass, v's visit in it, v, draw): the same on any thread count.
+  tbb::enumerable_thread_specific<std::vector<uint32_t>> scratch;
+  auto move = [&](uint32_t v, int pass, uint8_t visit) {
+    std::vector<uint32_t>& mine = scratch.local();
+    const glm::dvec3 start = P[v];
+    const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
+    // v's tets, the smallest angle first (the candidates are near v: its worst tet is likely theirs).
+    mine.assign(around[v].begin(), around[v].end());
+    auto key = [&](uint32_t u) { return std::isnan(cosine[u]) ? -HUGE_VAL : cosine[u]; };  // NaN first, ordered
+    std::sort(mine.begin(), mine.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
+    double best = quality_at(mine, limit, -HUGE_VAL);
+    glm::dvec3 best_at = start, centroid(0.0);
+    double edge = 0;
+    size_t count = 0;
+    for (uint32_t u : around[v])
+      for (uint32_t w : tets[u])
+        if (w != v) {
+          centroid += P[w];
+          edge += glm::length(P[w] - start);
+          ++count;
+        }
+    if (count == 0) return false;
+    centroid /= double(count);
+    edge /= double(count);
+    // A candidate is kept where its angle (not only its cosine: neighbouring cosines often give one angle) beats
+    // the best so far; any valid one beats an invalid start (-2).
+    auto consider = [&](const glm::dvec3& at) {
+      P[v] = at;
+      const double q = quality_at(mine, limit, best);
+      const bool better = best < -1 ? q >= -1 : q > best && dihedral_from_cosine(q) > dihedral_from_cosine(best);
+      if (better) best = q, best_at = at;
+    };
+    consider(centroid);
+    uint64_t draw = uint64_t(pass) << 56 ^ uint64_t(visit) << 48 ^ uint64_t(v) << 16;
+    for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
+      for (int k = 0; k < 8; ++k, draw += 3)
+        consider(best_at + step * glm::dvec3(hashed_normal(draw), hashed_normal(draw + 1), hashed_normal(draw + 2)) /
+                               std::sqrt(3.0));
+    P[v] = best_at;
+    if (best_at == start) return false;
+    for (uint32_t u : around[v]) cosine[u] = min_dihedral_cosine(P, tets[u]);
+    return true;
+  };
+  constexpr uint32_t kNoRank = UINT32_MAX;
+  constexpr uint8_t kMostVisits = 3;  // a vertex moves at most this often in a pass
+  std::vector<uint32_t> rank(P.size(), kNoRank);  // a candidate's place in its pass
+  std::vector<uint8_t> visits(P.size());
+  std::vector<uint32_t> candidates, waiting, next;
+  std::vector<uint8_t> chosen, moved;
   for (int pass = 0; pass < passes; ++pass) {
-    size_t moves = 0;
-    // The tets in index order, each tested when reached: those below the target when the pass starts, and those of
-    // a vertex moved earlier in the pass (only they can have changed). Serial, so that the moves are the same on
-    // any thread count.
-    std::vector<uint32_t> queue;
+    // The candidates: the free vertices of the tets to mend, in tet order.
+    candidates.clear();
+    std::fill(visits.begin(), visits.end(), uint8_t(0));
     for (uint32_t t = 0; t < tets.size(); ++t)
-      if (below(t)) queue.push_back(t);  // ascending: already a heap
-    uint32_t last = UINT32_MAX;
-    while (!queue.empty()) {
-      std::pop_heap(queue.begin(), queue.end(), std::greater<>());
-      const uint32_t t = queue.back();
-      queue.pop_back();
-      if (t == last) continue;
-      last = t;
-      if (at_or_above(t)) continue;
-      for (uint32_t v : tets[t]) {
-        if (v < fixed) continue;
-        const glm::dvec3 start = P[v];
-        const double limit = std::max(max_radius_edge, radius_edge_at(v));  // never worse than the bound or now
-        // v's tets, the smallest angle first (the candidates are near v: its worst tet is likely theirs).
-        mine.assign(around[v].begin(), around[v].end());
-        auto key = [&](uint32_t u) { return std::isnan(cosine[u]) ? -HUGE_VAL : cosine[u]; };  // NaN first, ordered
-        std::sort(mine.begin(), mine.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
-        double best = quality_at(mine, limit, -HUGE_VAL);
-        glm::dvec3 best_at = start, centroid(0.0);
-        double edge = 0;
-        size_t count = 0;
+      if (to_mend(t))
+        for (uint32_t v : tets[t])
+          if (v >= fixed && rank[v] == kNoRank) {
+            rank[v] = uint32_t(candidates.size());
+            candidates.push_back(v);
+            visits[v] = 1;
+          }
+    waiting.assign(candidates.begin(), candidates.end());
+    size_t moves = 0;
+    while (!waiting.empty()) {
+      // A round moves every waiting candidate that outranks each other one sharing a tet with it (no two movers
+      // share a tet, so their moves are independent: the same on any thread count), where a tet of it is still to
+      // mend.
+      chosen.assign(waiting.size(), 0);
+      moved.assign(waiting.size(), 0);
+      tbb::parallel_for(size_t(0), waiting.size(), [&](size_t i) {
+        const uint32_t v = waiting[i];
         for (uint32_t u : around[v])
           for (uint32_t w : tets[u])
-            if (w != v) {
-              centroid += P[w];
-              edge += glm::length(P[w] - start);
-              ++count;
-            }
-        if (count == 0) continue;
-        centroid /= double(count);
-        edge /= double(count);
-        // A candidate is kept where its angle (not only its cosine: neighbouring cosines often give one angle)
-        // beats the best so far; any valid one beats an invalid start (-2).
-        auto consider = [&](const glm::dvec3& at) {
-          P[v] = at;
-          const double q = quality_at(mine, limit, best);
-          const bool better = best < -1 ? q >= -1 : q > best && dihedral_from_cosine(q) > dihedral_from_cosine(best);
-          if (better) best = q, best_at = at;
-        };
-        consider(centroid);
-        for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
-          for (int k = 0; k < 8; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
-        P[v] = best_at;
-        if (best_at == start) continue;
+            if (w != v && rank[w] < rank[v]) return;
+        chosen[i] = 1;
+        bool any = false;
+        for (uint32_t u : around[v]) any = any || to_mend(u);
+        if (any) moved[i] = move(v, pass, visits[v]);
+      });
+      // The rest wait for the next round; after them, the free vertices of a moved vertex's tets still to mend
+      // (kMostVisits each in the pass), in order.
+      next.clear();
+      for (size_t i = 0; i < waiting.size(); ++i)
+        if (chosen[i]) rank[waiting[i]] = kNoRank;
+        else next.push_back(waiting[i]);
+      for (size_t i = 0; i < waiting.size(); ++i) {
+        if (!moved[i]) continue;
         ++moves;
-        for (uint32_t u : around[v]) {
-          cosine[u] = min_dihedral_cosine(P, tets[u]);
-          if (u > t) {
-            queue.push_back(u);
-            std::push_heap(queue.begin(), queue.end(), std::greater<>());
-          }
+        for (uint32_t u : around[waiting[i]]) {
+          if (!to_mend(u)) continue;
+          for (uint32_t w : tets[u])
+            if (w >= fixed && rank[w] == kNoRank && visits[w] < kMostVisits) {
+              rank[w] = uint32_t(candidates.size());
+              candidates.push_back(w);
+              ++visits[w];
+              next.push_back(w);
+            }
         }
       }
+      waiting.swap(next);
     }
     report.moves += moves;
     if (moves == 0) break;

@@ -550,9 +550,9 @@ TEST_CASE("mesh_materials: three boxes, one holding two that touch, meshed per m
 
 namespace {
 
-// improve_tets as first written: every pass tests every tet in index order (against its angles at that moment)
-// and recomputes the smallest angle of all tets from scratch. The library's version tests only the tets below the
-// target and those of moved vertices, and keeps the angles current; the moves must be the same.
+// improve_tets written out plainly: its rounds one vertex at a time, every angle recomputed from scratch, each round's
+// movers found by looking up every waiting vertex's tets' corners in the waiting list. The library's version moves a round's
+// vertices in parallel, keeps the angles as cosines and current, and tests fewer tets; the moves must be the same.
 mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std::vector<std::array<uint32_t, 4>>& tets,
                                           size_t fixed, double target_deg, double max_radius_edge, int passes) {
   mesh::TetImproveReport report;
@@ -586,44 +586,78 @@ mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std:
     }
     return q;
   };
-  std::mt19937 rng(12345);
-  std::normal_distribution<double> n01;
+  auto to_mend = [&](uint32_t t) { return !(min_angle(tets[t]) >= target); };  // (a NaN angle too)
+  auto move = [&](uint32_t v, int pass, int visit) {
+    const glm::dvec3 start = P[v];
+    double ratio = 0;
+    for (uint32_t u : around[v])
+      ratio = std::max(ratio, mesh::radius_edge_ratio(P[tets[u][0]], P[tets[u][1]], P[tets[u][2]], P[tets[u][3]]));
+    const double limit = std::max(max_radius_edge, ratio);
+    double best = quality_at(v, limit);
+    glm::dvec3 best_at = start, centroid(0.0);
+    double edge = 0;
+    size_t count = 0;
+    for (uint32_t u : around[v])
+      for (uint32_t w : tets[u])
+        if (w != v) {
+          centroid += P[w];
+          edge += glm::length(P[w] - start);
+          ++count;
+        }
+    if (count == 0) return false;
+    centroid /= double(count);
+    edge /= double(count);
+    auto consider = [&](const glm::dvec3& at) {
+      P[v] = at;
+      const double q = quality_at(v, limit);
+      if (q > best) best = q, best_at = at;
+    };
+    consider(centroid);
+    uint64_t draw = uint64_t(pass) << 56 ^ uint64_t(visit) << 48 ^ uint64_t(v) << 16;
+    for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
+      for (int k = 0; k < 8; ++k, draw += 3)
+        consider(best_at + step *
+                               glm::dvec3(mesh::hashed_normal(draw), mesh::hashed_normal(draw + 1),
+                                          mesh::hashed_normal(draw + 2)) / std::sqrt(3.0));
+    P[v] = best_at;
+    return best_at != start;
+  };
   for (int pass = 0; pass < passes; ++pass) {
     size_t moves = 0;
-    for (uint32_t t = 0; t < tets.size(); ++t) {
-      if (min_angle(tets[t]) >= target) continue;
-      for (uint32_t v : tets[t]) {
-        if (v < fixed) continue;
-        const glm::dvec3 start = P[v];
-        double ratio = 0;
-        for (uint32_t u : around[v])
-          ratio = std::max(ratio, mesh::radius_edge_ratio(P[tets[u][0]], P[tets[u][1]], P[tets[u][2]], P[tets[u][3]]));
-        const double limit = std::max(max_radius_edge, ratio);
-        double best = quality_at(v, limit);
-        glm::dvec3 best_at = start, centroid(0.0);
-        double edge = 0;
-        size_t count = 0;
-        for (uint32_t u : around[v])
+    std::vector<uint32_t> waiting;  // in rank order
+    std::vector<int> visits(P.size(), 0);
+    for (uint32_t t = 0; t < tets.size(); ++t)
+      if (to_mend(t))
+        for (uint32_t v : tets[t])
+          if (v >= fixed && visits[v] == 0) waiting.push_back(v), visits[v] = 1;
+    while (!waiting.empty()) {
+      std::vector<int> place(P.size(), -1);
+      for (size_t i = 0; i < waiting.size(); ++i) place[waiting[i]] = int(i);
+      std::vector<uint8_t> chosen(waiting.size(), 1);
+      for (size_t i = 0; i < waiting.size(); ++i)
+        for (uint32_t u : around[waiting[i]])
           for (uint32_t w : tets[u])
-            if (w != v) {
-              centroid += P[w];
-              edge += glm::length(P[w] - start);
-              ++count;
-            }
-        if (count == 0) continue;
-        centroid /= double(count);
-        edge /= double(count);
-        auto consider = [&](const glm::dvec3& at) {
-          P[v] = at;
-          const double q = quality_at(v, limit);
-          if (q > best) best = q, best_at = at;
-        };
-        consider(centroid);
-        for (double step = 0.2 * edge; step > 0.01 * edge; step *= 0.5)
-          for (int k = 0; k < 8; ++k) consider(best_at + step * glm::dvec3(n01(rng), n01(rng), n01(rng)) / std::sqrt(3.0));
-        P[v] = best_at;
-        moves += best_at != start;
+            if (place[w] >= 0 && place[w] < int(i)) chosen[i] = 0;
+      std::vector<uint32_t> next, moved;
+      for (size_t i = 0; i < waiting.size(); ++i) {
+        const uint32_t v = waiting[i];
+        if (!chosen[i]) {
+          next.push_back(v);
+          continue;
+        }
+        bool any = false;
+        for (uint32_t u : around[v]) any = any || to_mend(u);
+        if (any && move(v, pass, visits[v])) moved.push_back(v);
       }
+      for (uint32_t v : moved) {
+        ++moves;
+        for (uint32_t u : around[v])
+          if (to_mend(u))
+            for (uint32_t w : tets[u])
+              if (w >= fixed && std::find(next.begin(), next.end(), w) == next.end() && visits[w] < 3)
+                next.push_back(w), ++visits[w];
+      }
+      waiting = next;
     }
     report.moves += moves;
     if (moves == 0) break;
@@ -634,7 +668,7 @@ mesh::TetImproveReport improve_tets_plain(std::vector<glm::dvec3>& P, const std:
 
 }  // namespace
 
-TEST_CASE("improve_tets: the same moves as testing every tet in every pass, on any thread count") {
+TEST_CASE("improve_tets: the same moves as its rounds written out plainly, on any thread count") {
   // The Delaunay tets of jittered grid points: many slivers, and vertices in several of them (a move changes which
   // tets come later in the pass below the target).
   std::mt19937 rng(7);
