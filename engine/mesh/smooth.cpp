@@ -354,23 +354,23 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   };
   constexpr uint32_t kNoRank = UINT32_MAX;
   constexpr uint8_t kMostVisits = 3;  // a vertex moves at most this often in a pass
-  std::vector<uint32_t> rank(P.size(), kNoRank);  // a candidate's place in its pass
+  std::vector<uint32_t> rank(P.size(), kNoRank);  // a waiting vertex's place in its pass
   std::vector<uint8_t> visits(P.size());
-  std::vector<uint32_t> candidates, waiting, next;
+  std::vector<uint32_t> waiting, next;
   std::vector<uint8_t> chosen, moved;
   for (int pass = 0; pass < passes; ++pass) {
     // The candidates: the free vertices of the tets to mend, in tet order.
-    candidates.clear();
+    uint32_t ranked = 0;
+    waiting.clear();
     std::fill(visits.begin(), visits.end(), uint8_t(0));
     for (uint32_t t = 0; t < tets.size(); ++t)
       if (to_mend(t))
         for (uint32_t v : tets[t])
           if (v >= fixed && rank[v] == kNoRank) {
-            rank[v] = uint32_t(candidates.size());
-            candidates.push_back(v);
+            rank[v] = ranked++;
+            waiting.push_back(v);
             visits[v] = 1;
           }
-    waiting.assign(candidates.begin(), candidates.end());
     size_t moves = 0;
     while (!waiting.empty()) {
       // A round moves every waiting candidate that outranks each other one sharing a tet with it (no two movers
@@ -401,8 +401,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
           if (!to_mend(u)) continue;
           for (uint32_t w : tets[u])
             if (w >= fixed && rank[w] == kNoRank && visits[w] < kMostVisits) {
-              rank[w] = uint32_t(candidates.size());
-              candidates.push_back(w);
+              rank[w] = ranked++;
               ++visits[w];
               next.push_back(w);
             }
