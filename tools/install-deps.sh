@@ -14,6 +14,7 @@ packages=(
   libtbb-dev                           # oneTBB: parallel loops over voxels and lines for the fields (work stealing)
   nlohmann-json3-dev                   # report.json and benchmark JSON lines
   doctest-dev                          # tests
+  python3 python3-numpy                # cpmesh-check: the independent checker of written meshes (vectorised geometry)
 )
 
 missing=()

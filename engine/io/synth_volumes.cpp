@@ -10,6 +10,7 @@
 
 #include "io/atomic_file.h"
 #include "io/error.h"
+#include "io/synth_corpus.h"
 
 namespace cpmesh::io {
 
@@ -136,13 +137,32 @@ double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3
   return best;
 }
 
+namespace {
+constexpr std::array<std::pair<SynthShape, const char*>, 9> kShapeNames = {{{SynthShape::sphere, "sphere"},
+                                                                           {SynthShape::wedge_ball, "wedge-ball"},
+                                                                           {SynthShape::slabs, "slabs"},
+                                                                           {SynthShape::shells, "shells"},
+                                                                           {SynthShape::head, "head"},
+                                                                           {SynthShape::parcellation, "parcellation"},
+                                                                           {SynthShape::thin, "thin"},
+                                                                           {SynthShape::islands, "islands"},
+                                                                           {SynthShape::organs, "organs"}}};
+}  // namespace
+
+const char* synth_shape_name(SynthShape s) {
+  for (const auto& [shape, name] : kShapeNames)
+    if (shape == s) return name;
+  return "?";
+}
+
 SynthShape parse_synth_shape(const std::string& name) {
-  if (name == "sphere") return SynthShape::sphere;
-  if (name == "wedge-ball" || name == "wedge_ball") return SynthShape::wedge_ball;
-  if (name == "slabs") return SynthShape::slabs;
-  if (name == "shells") return SynthShape::shells;
-  if (name == "head") return SynthShape::head;
-  throw Error("field 'shape': expected sphere, wedge-ball, slabs, shells or head, got '" + name + "'");
+  if (name == "wedge_ball") return SynthShape::wedge_ball;
+  std::string known;
+  for (const auto& [shape, n] : kShapeNames) {
+    if (name == n) return shape;
+    known += (known.empty() ? "" : ", ") + std::string(n);
+  }
+  throw Error("field 'shape': expected one of " + known + ", got '" + name + "'");
 }
 
 void check_synth_options(const SynthOptions& o) {
@@ -150,6 +170,9 @@ void check_synth_options(const SynthOptions& o) {
   for (double s : o.spacing)
     if (!(s > 0) || !std::isfinite(s)) throw Error("field 'spacing': expected positive spacings");
   if (!(o.radius >= 0)) throw Error("field 'radius': expected a positive radius in voxels");
+  if (o.labels != 0 && (o.labels < 2 || o.labels > 1000))
+    throw Error("field 'labels': expected 2..1000 parcels, got '" + std::to_string(o.labels) + "'");
+  if (!(o.noise >= 0 && o.noise <= 0.5)) throw Error("field 'noise': expected a share in 0..0.5");
 }
 
 SynthVolume make_synth_volume(const SynthOptions& o) {
@@ -157,6 +180,8 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
   SynthVolume out;
   LabelVolume& v = out.volume;
   v.dims = {o.size, o.size, o.size};
+  if (o.shape == SynthShape::organs)  // a CT field of view: wide, shallower, few slices
+    v.dims = {o.size, std::max<int64_t>(4, std::llround(o.size * 0.806)), std::max<int64_t>(4, std::llround(o.size * 0.377))};
   if (o.shape == SynthShape::head)  // the seed paper's head is 199 x 250 x 249 voxels
     v.dims = {std::max<int64_t>(4, std::llround(o.size * 199.0 / 250)), o.size,
               std::max<int64_t>(4, std::llround(o.size * 249.0 / 250))};
@@ -164,6 +189,12 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
   v.format = "synthetic";
   v.file_type = ScalarType::u8;
   v.labels.assign(size_t(v.voxel_count()), 0);
+  if (is_corpus_shape(o.shape)) {
+    std::string params;
+    make_corpus_volume(o, v, params);
+    out.description = params;
+    return out;
+  }
   const double h = std::min({o.spacing[0], o.spacing[1], o.spacing[2]});
   const double n = double(o.size);
   // Off-grid centre (as in analytic_volumes.h) so no interface passes exactly through voxel centres.
@@ -230,15 +261,13 @@ SynthVolume make_synth_volume(const SynthOptions& o) {
       };
       break;
     }
+    default:
+      break;  // the corpus kinds returned above
   }
   for (int64_t k = 0; k < v.dims[2]; ++k)
     for (int64_t j = 0; j < v.dims[1]; ++j)
       for (int64_t i = 0; i < v.dims[0]; ++i) v.labels[v.index(i, j, k)] = label(v.position(i, j, k));
-  params["shape"] = o.shape == SynthShape::sphere       ? "sphere"
-                    : o.shape == SynthShape::wedge_ball ? "wedge-ball"
-                    : o.shape == SynthShape::slabs      ? "slabs"
-                    : o.shape == SynthShape::shells     ? "shells"
-                                                        : "head";
+  params["shape"] = synth_shape_name(o.shape);
   out.description = params.dump();
   return out;
 }

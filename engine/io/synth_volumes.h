@@ -23,13 +23,17 @@
 
 namespace cpmesh::io {
 
-enum class SynthShape { sphere, wedge_ball, slabs, shells, head };
+// The corpus kinds (parcellation, thin, islands, organs) are described in synth_corpus.h.
+enum class SynthShape { sphere, wedge_ball, slabs, shells, head, parcellation, thin, islands, organs };
 
 struct SynthOptions {
   SynthShape shape = SynthShape::wedge_ball;
   int64_t size = 64;                    // voxels along each axis (head: along y)
   std::array<double, 3> spacing{1, 1, 1};
   double radius = 0;                    // outer radius in voxels (sphere, wedge ball, shells); 0: the default
+  int labels = 0;                       // parcels of the parcellation (2..1000); 0: the default (80)
+  double noise = 0;                     // corpus kinds: share of boundary voxels flipped to a neighbour's label
+  uint64_t seed = 1;                    // corpus kinds: the random layout
 };
 
 struct TripleCurve {
@@ -58,9 +62,11 @@ struct SynthVolume {
 // junctions have no such curve.
 double distance_to_triple_curve(const Junctions& j, const std::array<uint16_t, 3>& materials, const std::array<double, 3>& p);
 
-SynthShape parse_synth_shape(const std::string& name);  // "sphere", "wedge-ball", "slabs", "shells", "head"
+// "sphere", "wedge-ball", "slabs", "shells", "head", "parcellation", "thin", "islands", "organs"
+SynthShape parse_synth_shape(const std::string& name);
+const char* synth_shape_name(SynthShape s);
 // Throws (naming the field) for options make_synth_volume refuses: size outside 4..2048, a spacing that is not
-// positive, a negative radius.
+// positive, a negative radius, labels outside 2..1000 (0: default), noise outside 0..0.5.
 void check_synth_options(const SynthOptions& o);
 SynthVolume make_synth_volume(const SynthOptions& o);
 // JSON: {"shape", "parameters", "quadruple_points": [{"materials", "position"}], "triple_curves": [{"materials",

@@ -83,6 +83,23 @@ TEST_CASE("cpmesh-synth writes a volume that info reads back, atomically") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("cpmesh-synth lists the corpus and writes its volumes by name") {
+  const auto dir = scratch();
+  const auto list = run_tool("cpmesh-synth --list");
+  REQUIRE(list.exit_code == 0);
+  CHECK(contains(list.output, "parcellation-300: parcellation -n 72 --labels 300"));
+  CHECK(contains(list.output, "organs-438: organs -n 438"));
+  const auto out = dir / "thin.nrrd";
+  REQUIRE(run_tool("cpmesh-synth --corpus islands-48 -o " + out.string()).exit_code == 0);
+  const auto info = run_tool("cpmesh info " + out.string());
+  CHECK(contains(info.output, "label 5 has only 2 voxels"));
+  const auto unknown = run_tool("cpmesh-synth --corpus nope -o " + out.string());
+  CHECK(unknown.exit_code == 1);
+  CHECK(contains(unknown.output, "field 'corpus': expected one of parcellation-48"));
+  CHECK(run_tool("cpmesh-synth thin --corpus thin-48 -o " + out.string()).exit_code == 1);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("fields on the bundled wedge ball: features found, files written, errors clear") {
   const auto dir = scratch();
   const auto out = dir / "fields";

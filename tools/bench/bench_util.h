@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/read_volume.h"
+#include "io/synth_corpus.h"
 #include "io/synth_volumes.h"
 #include "mesh/quality.h"
 
@@ -29,7 +30,8 @@ inline double peak_rss_mib() {
   return double(u.ru_maxrss) / 1024.0;
 }
 
-// A benchmark volume: "shape:size" (sphere, wedge-ball, slabs, shells, head; cpmesh-synth's volumes) or a volume
+// A benchmark volume: "shape:size" (cpmesh-synth's shapes), "corpus:NAME" (a volume of the realistic corpus,
+// `cpmesh-synth --list`) or a volume
 // file (an existing path is always a file). The synthetic volume's options, or nothing for a file; a bad shape or
 // size throws, naming the spec.
 inline std::optional<io::SynthOptions> synth_spec(const std::string& spec) {
@@ -37,6 +39,7 @@ inline std::optional<io::SynthOptions> synth_spec(const std::string& spec) {
   if (colon == std::string::npos || spec.find('.') != std::string::npos || std::filesystem::exists(spec))
     return std::nullopt;
   try {
+    if (spec.substr(0, colon) == "corpus") return io::corpus_entry(spec.substr(colon + 1)).options;
     io::SynthOptions o;
     o.shape = io::parse_synth_shape(spec.substr(0, colon));
     const std::string size = spec.substr(colon + 1);
