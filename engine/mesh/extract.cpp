@@ -39,40 +39,45 @@ std::array<uint32_t, 3> outward_face(const Tets& T, uint32_t tc) {
   return f;
 }
 
+glm::dvec3 label_point(const Tets& T, uint32_t t) {
+  const auto& v = T.tets[t];
+  bool ok;
+  return circumcentre(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]], ok);
+}
+
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& F, const Tets& T) {
   std::vector<uint16_t> m(T.tets.size());
   const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
   tbb::parallel_for(size_t(0), T.tets.size(), [&](size_t t) {
-    const auto& v = T.tets[t];
-    bool ok;
-    const glm::dvec3 c = circumcentre(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]], ok);
-    m[t] = uint16_t(F.material_at(glm::clamp(c / F.grid.spacing, glm::dvec3(0.0), hi)));
+    m[t] = uint16_t(F.material_at(glm::clamp(label_point(T, uint32_t(t)) / F.grid.spacing, glm::dvec3(0.0), hi)));
   });
   return m;
 }
 
+glm::dvec3 hull_sample_point(const fields::IndicatorFields& F, const Tets& T, uint32_t tc) {
+  const double h = F.grid.min_spacing();
+  const auto f = outward_face(T, tc);
+  const glm::dvec3 &a = T.points[f[0]], &b = T.points[f[1]], &c = T.points[f[2]];
+  const glm::dvec3 centroid = (a + b + c) / 3.0;
+  const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+  // A surface sampled by this face's corners, with curvature radius no smaller than the face's circumradius rho,
+  // bulges at most rho beyond it: sampling half a voxel out, as before, landed inside a material wherever a
+  // large hull face cut under a curved surface, and the outside then changed material from face to face, which
+  // left the materials' boundaries open (a 40^3 wedge ball lost its tet mesh that way).
+  const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+  const double area2 = glm::length(glm::cross(b - a, c - a));  // twice the area
+  const double rho = area2 > 0 ? la * lb * lc / (2.0 * area2) : std::max({la, lb, lc});
+  return centroid + (0.5 * h + std::min(rho, 4.0 * h)) * n;
+}
+
 std::vector<uint16_t> hull_materials(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj) {
   std::vector<uint16_t> out(adj.neighbour.size(), 0);
-  const double h = F.grid.min_spacing();
   const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
   const tbb::blocked_range<uint32_t> faces(0, uint32_t(adj.neighbour.size()), 1 << 14);
   tbb::parallel_for(faces, [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t tc = r.begin(); tc < r.end(); ++tc) {
-      if (adj.neighbour[tc] != Adjacency::kHull) continue;
-      const auto f = outward_face(T, tc);
-      const glm::dvec3 &a = T.points[f[0]], &b = T.points[f[1]], &c = T.points[f[2]];
-      const glm::dvec3 centroid = (a + b + c) / 3.0;
-      const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
-      // A surface sampled by this face's corners, with curvature radius no smaller than the face's circumradius rho,
-      // bulges at most rho beyond it: sampling half a voxel out, as before, landed inside a material wherever a
-      // large hull face cut under a curved surface, and the outside then changed material from face to face, which
-      // left the materials' boundaries open (a 40^3 wedge ball lost its tet mesh that way).
-      const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
-      const double area2 = glm::length(glm::cross(b - a, c - a));  // twice the area
-      const double rho = area2 > 0 ? la * lb * lc / (2.0 * area2) : std::max({la, lb, lc});
-      const double step = 0.5 * h + std::min(rho, 4.0 * h);
-      out[tc] = uint16_t(F.material_at(glm::clamp((centroid + step * n) / F.grid.spacing, glm::dvec3(0.0), hi)));
-    }
+    for (uint32_t tc = r.begin(); tc < r.end(); ++tc)
+      if (adj.neighbour[tc] == Adjacency::kHull)
+        out[tc] = uint16_t(F.material_at(glm::clamp(hull_sample_point(F, T, tc) / F.grid.spacing, glm::dvec3(0.0), hi)));
   });
   return out;
 }
@@ -186,6 +191,7 @@ InterfaceMesh extract_interfaces(const Tets& T, const Adjacency& adj, const std:
     if (ma > mb) std::swap(f[1], f[2]);
     out.triangles.push_back(f);
     out.pair.push_back({std::min(ma, mb), std::max(ma, mb)});
+    out.face.push_back(tc);
   }
   return out;
 }

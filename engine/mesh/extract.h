@@ -27,12 +27,17 @@ struct InterfaceMesh {
   std::vector<uint8_t> vertex_kind;                // fields::FeatureKind of the particle
   std::vector<std::array<uint32_t, 3>> triangles;  // oriented: the normal points from pair[0] into pair[1]
   std::vector<std::array<uint16_t, 2>> pair;       // material indices (IndicatorFields::labels), pair[0] < pair[1]
+  std::vector<uint32_t> face;                      // the tet face of each triangle (tet * 4 + corner)
 };
 
 // The face of tet tc / 4 opposite corner tc % 4, ordered so its normal points out of the tet.
 std::array<uint32_t, 3> outward_face(const Tets& tets, uint32_t tc);
 
 glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d, bool& ok);
+// Where a tet's material is read: its circumcentre (its centroid when flat).
+glm::dvec3 label_point(const Tets& tets, uint32_t t);
+// Where the material outside hull face tc is read (see hull_materials).
+glm::dvec3 hull_sample_point(const fields::IndicatorFields& fields, const Tets& tets, uint32_t tc);
 // Material index of every tet at its circumcentre (clamped to the grid; a flat tet uses its centroid).
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& fields, const Tets& tets);
 // Per hull face (indexed like Adjacency::neighbour): the material outside it, sampled half a voxel plus the face's

@@ -1,4 +1,5 @@
 #include "mesh/pipeline.h"
+#include "mesh/refine.h"
 
 #include <algorithm>
 #include <atomic>
@@ -159,20 +160,28 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   std::vector<uint64_t> vertex_materials;
   std::vector<float> vertex_h;
   std::vector<uint32_t> vertex_feature;
-  auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
+  auto set_vertex = [&](size_t v, const glm::dvec3& p, uint32_t f, float h) {
     const auto& feat = F.embedding.features[f];
-    points.push_back(p);
-    vertex_feature.push_back(f);
-    kind.push_back(uint8_t(feat.kind));
-    vertex_materials.push_back(feat.material_mask());
-    vertex_h.push_back(h);
+    points[v] = p;
+    vertex_feature[v] = f;
+    kind[v] = uint8_t(feat.kind);
+    vertex_materials[v] = feat.material_mask();
+    vertex_h[v] = h;
+  };
+  auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
+    points.emplace_back();
+    vertex_feature.emplace_back();
+    kind.emplace_back();
+    vertex_materials.emplace_back();
+    vertex_h.emplace_back();
+    set_vertex(points.size() - 1, p, f, h);
   };
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
 
-  // Delaunay, labels, repair; where wrong faces are left (a triangle spanning a triple curve that is sampled too
-  // sparsely there), add the curve's closest point to the wrong face's centroid (inserted into the tetrahedralization:
-  // DelaunayMesh::insert) and label again.
+  // Delaunay, labels, repair, then Delaunay refinement (refine.h): where wrong faces are left, and then where an
+  // interface is not a manifold bounded by triple curves, samples are added on the missing features (inserted into
+  // the tetrahedralization: DelaunayMesh::insert) and the tets labelled again, until none is needed or none fits.
   begin("delaunay and extraction");
   double tetrahedralization_seconds = 0;  // the rest of the stage (from its start) is the extraction
   const auto stage_start = t;             // when the stage began (the last stage_done)
@@ -181,7 +190,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     step();
     tetrahedralization_seconds += std::chrono::duration<double>(clock::now() - s0).count();
   };
-  std::optional<DelaunayMesh> delaunay_mesh;  // kept for the repair's insertions
+  std::optional<DelaunayMesh> delaunay_mesh;  // kept for the refinement's insertions
   Tets T;
   Adjacency adj;
   timed([&] {
@@ -189,6 +198,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     T = delaunay_mesh->tets(&adj);
   });
   std::vector<uint16_t> material, hull;
+  std::vector<uint8_t> moved;  // points the refinement moved: they stay where they went
+  size_t fewest_faces = SIZE_MAX;
+  int stalled = 0;
   for (int round = 0;; ++round) {
     material = label_tets(F.fields, T);
     hull = hull_materials(F.fields, T, adj);
@@ -196,36 +208,37 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
     const auto wrong = wrong_faces(T, adj, hull, vertex_materials, material);
     rep.wrong_faces = wrong.size();
-    if (wrong.empty() || round == options.repair_rounds) break;
-    size_t added = 0;
-    std::vector<glm::dvec3> extra;
-    for (uint32_t tc : wrong) {
-      const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
-      const auto f = outward_face(T, tc);
-      uint64_t all = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
-      for (uint32_t v : f) all |= vertex_materials[v];
-      if (std::popcount(all) != 3) continue;
-      std::array<uint16_t, 4> mats = {0xffff, 0xffff, 0xffff, 0xffff};
-      for (int b = 0, k = 0; b < 64; ++b)
-        if (all >> b & 1) mats[size_t(k++)] = uint16_t(b);
-      const int curve = F.embedding.feature_index(fields::FeatureKind::triple_curve, mats);
-      if (curve < 0) continue;
-      const glm::dvec3 c = (T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0;
-      const auto cp = ref::cp_lookup(F.embedding, glm::vec3(c), uint32_t(curve));
-      if (!cp.valid) continue;
-      const glm::dvec3 q(glm::vec3(cp.value));
-      bool crowded = false;  // an earlier insertion (or a particle) already there
-      for (size_t v = P.particles.size(); v < points.size() && !crowded; ++v) crowded = glm::length(points[v] - q) < 0.3 * cp.value.w;
-      for (uint32_t v : f) crowded = crowded || glm::length(points[v] - q) < 0.3 * cp.value.w;
-      if (crowded) continue;
-      add_vertex(q, uint32_t(curve), cp.value.w);
-      extra.push_back(q);
-      ++added;
+    std::vector<uint32_t> faces = nonmanifold_faces(extract_interfaces(T, adj, hull, material, kind));
+    faces.insert(faces.end(), wrong.begin(), wrong.end());
+    const std::vector<RefineSite> sites = face_sites(F.fields, T, adj, hull, material, vertex_materials, faces);
+    rep.refinement_rounds = round;
+    rep.refinement_left.clear();
+    for (size_t i = 0; i < sites.size() && i < kMaxRefinementLeft; ++i) {
+      const glm::dvec3 q = grid.to_physical(sites[i].at);
+      rep.refinement_left.push_back({{labels[sites[i].m], labels[sites[i].o]}, {q.x, q.y, q.z}});
     }
-    rep.added_curve_points += added;
-    if (added == 0) break;
+    // A round that leaves more faces to refine than the best round three rounds ago ends it: what is left cycles.
+    stalled = faces.size() < fewest_faces ? 0 : stalled + 1;
+    fewest_faces = std::min(fewest_faces, faces.size());
+    if (sites.empty() || round == options.repair_rounds || stalled == 3) break;
+    const Refinement extra =
+        refinement_points(F.embedding, sites, points, vertex_materials, moved, options.junction_protection);
+    if (extra.added.empty() && extra.moved.empty()) break;
+    std::vector<glm::dvec3> positions;
+    for (const RefinePoint& e : extra.added) {
+      add_vertex(e.position, e.feature, e.h);
+      positions.push_back(e.position);
+    }
+    moved.resize(points.size());
+    for (const auto& [v, e] : extra.moved) {
+      set_vertex(v, e.position, e.feature, e.h);
+      moved[v] = 1;
+    }
+    rep.refinement_points += extra.added.size();
+    rep.refinement_moves += extra.moved.size();
     timed([&] {
-      delaunay_mesh->insert(extra);
+      if (extra.moved.empty()) delaunay_mesh->insert(positions);
+      else delaunay_mesh.emplace(points);  // moved points: the tetrahedralization starts again
       T = delaunay_mesh->tets(&adj);
     });
   }
@@ -401,6 +414,31 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     stage_done(d);
   }
   return result;
+}
+
+std::vector<std::string> guarantee_failures(const MeshReport& rep) {
+  std::vector<std::string> out;
+  auto pair_text = [](const std::array<uint16_t, 2>& l) { return std::to_string(l[0]) + "/" + std::to_string(l[1]); };
+  std::string where;
+  for (const auto& left : rep.refinement_left) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%s%s at (%.4g, %.4g, %.4g)", where.empty() ? "" : "; ", pair_text(left.labels).c_str(),
+                  left.at[0], left.at[1], left.at[2]);
+    where += text;
+  }
+  if (rep.wrong_faces > 0) out.push_back(std::to_string(rep.wrong_faces) + " wrong faces left after refinement");
+  std::string bad;
+  size_t bad_count = 0;
+  for (const auto& ir : rep.interfaces)
+    if (!ir.check.manifold()) bad += (bad_count++ < 12 ? (bad.empty() ? "" : ", ") + pair_text(ir.labels) : std::string());
+  if (bad_count > 0)
+    out.push_back(std::to_string(bad_count) + " of " + std::to_string(rep.interfaces.size()) +
+                  " interfaces not manifold or open off the triple curves: " + bad + (bad_count > 12 ? ", ..." : ""));
+  for (const auto& mr : rep.materials)
+    if (mr.odd_edges > 0) out.push_back("material " + std::to_string(mr.label) + " not closed (" + std::to_string(mr.odd_edges) + " open edges)");
+  if (rep.crossing_triangles > 0) out.push_back(std::to_string(rep.crossing_triangles) + " pairs of crossing interface triangles");
+  if (!out.empty() && !where.empty()) out.push_back("faces the refinement could not mend: " + where);
+  return out;
 }
 
 }  // namespace cpmesh::mesh

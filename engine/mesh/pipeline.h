@@ -47,7 +47,8 @@ struct MeshOptions {
   double junction_protection = 0.55;  // interface particles closer than this x h to a bounding triple curve or
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
-  int repair_rounds = 4;       // rounds of curve points added where wrong faces are left (extract.h, "Repair")
+  int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
+                               // are left (refine.h); each adds samples only where there is room
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
   std::vector<std::vector<uint16_t>> materials;
@@ -79,6 +80,13 @@ struct StepTime {
   double seconds = 0;
 };
 
+// Where the Delaunay refinement stopped with a face still to refine: the face's two labels and where it is
+// (physical units), as the error names them.
+struct RefinementLeft {
+  std::array<uint16_t, 2> labels{};
+  std::array<double, 3> at{};
+};
+
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
   std::vector<StepTime> steps;                          // the parts of "fields", "delaunay and extraction", "volume mesh"
@@ -92,7 +100,10 @@ struct MeshReport {
   bool settled = false, steady = false;
   size_t delaunay_tets = 0;
   size_t wrong_faces_before_repair = 0, relabelled_tets = 0, wrong_faces = 0;  // extract.h "Repair"
-  size_t added_curve_points = 0;
+  size_t refinement_points = 0;  // samples the Delaunay refinement added (refine.h)
+  size_t refinement_moves = 0;   // particles on the wrong feature moved to a refinement sample
+  int refinement_rounds = 0;
+  std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
   TriangleStats surface;  // all interface triangles
   TriangleStats junction_triangles, other_triangles;  // with a triple-curve or quadruple-point vertex; without
@@ -109,6 +120,13 @@ struct MeshReport {
   size_t interfaces_manifold = 0, materials_closed = 0;
   size_t crossing_triangles = 0;  // pairs of interface triangles that cross each other (quality.h; 0 for a valid mesh)
 };
+
+constexpr size_t kMaxRefinementLeft = 20;
+
+// What keeps the mesh from the guarantee (docs/design.md, "The guarantee"): wrong faces left, interfaces that are
+// not manifold or whose boundary leaves the triple curves, materials not closed, crossing triangles; one line each,
+// naming the labels and where. Empty for a valid mesh. The CLI exits non-zero when it is not empty.
+std::vector<std::string> guarantee_failures(const MeshReport& report);
 
 struct MeshResult {
   io::TriangleMesh surfaces;   // every interface, physical units, triangle_pair = labels (normal into the second)

@@ -210,7 +210,7 @@ TEST_CASE_FIXTURE(GpuFixture, "wedge ball end to end: every material closed, int
   MESSAGE(rep.particles << " particles, " << rep.surface.triangles << " triangles, radius ratio mean "
                         << rep.surface.mean_radius_ratio << " min " << rep.surface.min_radius_ratio << "; wrong faces "
                         << rep.wrong_faces_before_repair << " -> " << rep.wrong_faces << " (" << rep.relabelled_tets
-                        << " tets relabelled, " << rep.added_curve_points << " curve points added); "
+                        << " tets relabelled, " << rep.refinement_points << " refinement points); "
                         << rep.interfaces_manifold << " of " << rep.interfaces.size() << " interfaces manifold; volume "
                         << rep.volume.tets << " tets, dihedral " << rep.volume.min_dihedral_deg << ".."
                         << rep.volume.max_dihedral_deg);
@@ -362,11 +362,11 @@ TEST_CASE_FIXTURE(GpuFixture, "the repair inserts curve points into the Delaunay
   options.only_surfaces = true;
   const auto r = mesh::mesh_volume(ctx, volume, options);
   const auto& rep = r.report;
-  MESSAGE(rep.wrong_faces_before_repair << " wrong faces, " << rep.added_curve_points << " curve points added, "
+  MESSAGE(rep.wrong_faces_before_repair << " wrong faces, " << rep.refinement_points << " refinement points, "
                                         << rep.wrong_faces << " left");
-  CHECK(rep.added_curve_points > 0);
+  CHECK(rep.refinement_points > 0);
   CHECK(rep.wrong_faces < rep.wrong_faces_before_repair);
-  REQUIRE(r.surfaces.vertices.size() == rep.particles + rep.added_curve_points);
+  REQUIRE(r.surfaces.vertices.size() == rep.particles + rep.refinement_points);
   std::vector<uint8_t> used(r.surfaces.vertices.size(), 0);
   for (const auto& t : r.surfaces.triangles)
     for (uint32_t v : t) used[v] = 1;
@@ -382,7 +382,7 @@ TEST_CASE_FIXTURE(GpuFixture, "concentric shells with 1- and 1.5-voxel layers: c
   const auto& rep = r.report;
   MESSAGE(rep.particles << " particles, radius ratio " << rep.surface.mean_radius_ratio << " / "
                         << rep.surface.min_radius_ratio << ", " << rep.smoothing_moves << " smoothing moves, "
-                        << rep.volume.tets << " tets, " << rep.added_curve_points << " curve points added"
+                        << rep.volume.tets << " tets, " << rep.refinement_points << " refinement points"
                         << (rep.volume_error.empty() ? "" : ": " + rep.volume_error));
   CHECK(rep.smoothing_moves > 0);
   // The thin layers' fields make particles that lie off their features (measured: 752 of 29.6k); left out, they take

@@ -92,6 +92,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "interface (0: off); keeps junction triangles from degenerating")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  sub->add_option("--refinement-rounds", m.repair_rounds,
+                  "Rounds of Delaunay refinement where faces are wrong or interfaces not manifold (0: none; a mesh left "
+                  "invalid is an error)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   sub->add_option("--smoothing-rounds", m.smoothing.rounds,
                   "Rounds of interface smoothing after extraction (0: off): vertices move towards their neighbours' "
                   "centroid on their surface or curve, never making a triangle worse")
@@ -203,7 +208,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["smoothing_moves"] = rep.smoothing_moves;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
-                           {"added_curve_points", rep.added_curve_points}};
+                           {"refinement_points", rep.refinement_points}, {"refinement_rounds", rep.refinement_rounds}};
             j["interfaces"] = nlohmann::json::array();
             for (const auto& ir : rep.interfaces) {
               auto e = triangle_json(ir.quality);
@@ -231,6 +236,12 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
             j["volume_mesh"]["unsplit_because"] = rep.volume_unsplit_because;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
+            const std::vector<std::string> failures = mesh::guarantee_failures(rep);
+            j["valid"] = failures.empty();
+            j["invalid_because"] = failures;
+            j["repair"]["refinement_moves"] = rep.refinement_moves;
+            j["repair"]["left"] = nlohmann::json::array();
+            for (const auto& left : rep.refinement_left) j["repair"]["left"].push_back({{"labels", left.labels}, {"at", left.at}});
             io::write_atomically(dir + "report.json", [&](std::ostream& out) { out << j.dump(2) << '\n'; });
 
             std::printf("%s: %zu particles (%d iterations, %zu rounds), %zu interface triangles, %zu tets\n",
@@ -256,9 +267,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
                         rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
             std::printf("  particles left out: %zu off their feature; junctions: %zu interface particles left out "
-                        "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu curve points added, %zu left\n",
+                        "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu points added by refinement, %zu left\n",
                         rep.off_feature_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
-                        rep.added_curve_points, rep.wrong_faces);
+                        rep.refinement_points, rep.wrong_faces);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials "
                         "closed; %zu crossing triangle pairs\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
@@ -290,6 +301,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             }
             std::printf("  wrote %s\n", o->out.c_str());
             print_profile(ctx, g);
+            // A mesh known to be broken is an error, written out only so that it can be looked at.
+            if (!failures.empty()) {
+              std::fprintf(stderr, "cpmesh: error: %s: the mesh is not valid; %s holds it for inspection only:\n",
+                           o->input.path.c_str(), o->out.c_str());
+              for (const auto& f : failures) std::fprintf(stderr, "  %s\n", f.c_str());
+              return 1;
+            }
             // The surfaces, particles and report are complete and written, but what was asked for is not all there.
             if (!o->mesh.only_surfaces && !rep.volume_error.empty()) {
               std::fprintf(stderr, "cpmesh: error: %s: volume mesh not made (%s); the interface meshes, particles and "

@@ -1,0 +1,238 @@
+#include "mesh/refine.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <optional>
+#include <unordered_map>
+
+#include <tbb/parallel_for.h>
+
+#include "ref/cp_lookup.h"
+
+namespace cpmesh::mesh {
+
+namespace {
+
+// Points hashed into cubes of a fixed side: "is any point within r of q" for r up to that side.
+class PointHash {
+ public:
+  explicit PointHash(double cell) : cell_(cell) {}
+  void add(const glm::dvec3& p, int64_t index) { cells_[key(cell_of(p))].push_back({p, index}); }
+  // The index of the nearest point within r of q, or -1 (-2 where the nearest has no index).
+  int64_t nearest_within(const glm::dvec3& q, double r) const {
+    const glm::ivec3 c = cell_of(q);
+    int64_t best = -1;
+    double best_d = r;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = cells_.find(key(c + glm::ivec3(dx, dy, dz)));
+          if (it == cells_.end()) continue;
+          for (const auto& [p, index] : it->second)
+            if (const double d = glm::length(p - q); d < best_d) best_d = d, best = index;
+        }
+    return best;
+  }
+
+ private:
+  glm::ivec3 cell_of(const glm::dvec3& p) const { return glm::ivec3(glm::floor(p / cell_)); }
+  static uint64_t key(const glm::ivec3& c) {
+    return (uint64_t(uint32_t(c.x)) * 0x9e3779b97f4a7c15ull) ^ (uint64_t(uint32_t(c.y)) * 0xc2b2ae3d27d4eb4full) ^
+           (uint64_t(uint32_t(c.z)) * 0x165667b19e3779f9ull);
+  }
+  double cell_;
+  std::unordered_map<uint64_t, std::vector<std::pair<glm::dvec3, int64_t>>> cells_;
+};
+
+std::vector<uint16_t> materials_of(uint64_t mask) {
+  std::vector<uint16_t> out;
+  for (; mask; mask &= mask - 1) out.push_back(uint16_t(std::countr_zero(mask)));
+  return out;
+}
+
+// The features a site may take a sample on: the interface of m and o, and the triple curves and quadruple points of
+// m, o and the materials its vertices lie on.
+std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E, const RefineSite& s) {
+  using fields::FeatureKind;
+  const uint64_t pair = (uint64_t(1) << s.m) | (uint64_t(1) << s.o);
+  const std::vector<uint16_t> others = materials_of(s.vertex_materials & ~pair);
+  std::vector<uint32_t> out;
+  auto add = [&](FeatureKind kind, std::vector<uint16_t> mats) {
+    std::sort(mats.begin(), mats.end());
+    std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+    std::copy(mats.begin(), mats.end(), key.begin());
+    const int f = E.feature_index(kind, key);
+    if (f >= 0) out.push_back(uint32_t(f));
+  };
+  add(FeatureKind::interface, {s.m, s.o});
+  for (size_t a = 0; a < others.size(); ++a) {
+    add(FeatureKind::triple_curve, {s.m, s.o, others[a]});
+    for (size_t b = a + 1; b < others.size(); ++b) add(FeatureKind::quadruple_point, {s.m, s.o, others[a], others[b]});
+  }
+  return out;
+}
+
+// The closest point to p of the feature of exactly `materials` (a triple curve or quadruple point), when it exists
+// and lies within h of p.
+std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p, uint64_t materials) {
+  const int n = std::popcount(materials);
+  if (n < 3 || n > 4) return std::nullopt;
+  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+  const auto mats = materials_of(materials);
+  std::copy(mats.begin(), mats.end(), key.begin());
+  const int f = E.feature_index(n == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
+  if (f < 0) return std::nullopt;
+  const auto cp = ref::cp_lookup(E, glm::vec3(p), uint32_t(f));
+  const glm::dvec3 q(glm::vec3(cp.value));
+  if (!cp.valid || !(glm::length(q - p) <= cp.value.w)) return std::nullopt;
+  return RefinePoint{q, uint32_t(f), cp.value.w};
+}
+
+}  // namespace
+
+namespace {
+
+// Where the material first changes along a -> b (local coordinates), to a twentieth of a voxel; nullopt when the
+// samples show no change.
+std::optional<glm::dvec3> material_change(const fields::IndicatorFields& F, glm::dvec3 a, glm::dvec3 b) {
+  const glm::dvec3 top = glm::dvec3(F.grid.dims - 1) * F.grid.spacing;
+  a = glm::clamp(a, glm::dvec3(0.0), top);
+  b = glm::clamp(b, glm::dvec3(0.0), top);
+  auto at = [&](const glm::dvec3& p) { return F.material_at(p / F.grid.spacing); };
+  const int start = at(a);
+  const int samples = std::clamp(int(std::ceil(glm::length(b - a) / F.grid.min_spacing())) * 2, 2, 256);
+  glm::dvec3 lo = a;
+  for (int i = 1; i <= samples; ++i) {
+    const glm::dvec3 hi = a + (b - a) * (double(i) / samples);
+    if (at(hi) == start) {
+      lo = hi;
+      continue;
+    }
+    glm::dvec3 h = hi;
+    for (int k = 0; k < 12 && glm::length(h - lo) > 0.05 * F.grid.min_spacing(); ++k) {
+      const glm::dvec3 mid = (lo + h) / 2.0;
+      (at(mid) == start ? lo : h) = mid;
+    }
+    return (lo + h) / 2.0;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<RefineSite> face_sites(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj,
+                                   const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
+                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint32_t>& faces) {
+  std::vector<RefineSite> out(faces.size());
+  tbb::parallel_for(size_t(0), faces.size(), [&](size_t i) {
+    const uint32_t tc = faces[i];
+    const auto f = outward_face(T, tc);
+    const uint32_t nb = adj.neighbour[tc];
+    const glm::dvec3 a = label_point(T, tc / 4), b = nb == Adjacency::kHull ? hull_sample_point(F, T, tc) : label_point(T, nb / 4);
+    RefineSite s{(T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0, material[tc / 4],
+                 material_across(adj, hull, material, tc), 0, f};
+    if (const auto c = material_change(F, a, b)) s.at = *c;
+    for (uint32_t v : f) s.vertex_materials |= vertex_materials[v];
+    out[i] = s;
+  });
+  return out;
+}
+
+std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
+  struct Edge {
+    uint32_t a, b, group, triangle;
+    auto operator<=>(const Edge&) const = default;
+  };
+  std::vector<Edge> edges;
+  edges.reserve(3 * I.triangles.size());
+  for (uint32_t t = 0; t < I.triangles.size(); ++t) {
+    const auto& tri = I.triangles[t];
+    const uint32_t g = uint32_t(I.pair[t][0]) << 16 | I.pair[t][1];
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = tri[size_t(k)], b = tri[size_t((k + 1) % 3)];
+      edges.push_back({std::min(a, b), std::max(a, b), g, t});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  const auto interface_kind = uint8_t(fields::FeatureKind::interface);
+  std::vector<uint32_t> out;
+  for (size_t i = 0; i < edges.size();) {
+    // The run of one vertex pair (all interfaces), and within it the runs of one interface.
+    size_t end = i;
+    while (end < edges.size() && edges[end].a == edges[i].a && edges[end].b == edges[i].b) ++end;
+    for (size_t j = i; j < end;) {
+      size_t k = j;
+      while (k < end && edges[k].group == edges[j].group) ++k;
+      const Edge& e = edges[j];
+      const bool open_off_curve = k - j == 1 && (end - i < 3 || I.vertex_kind[e.a] == interface_kind ||
+                                                 I.vertex_kind[e.b] == interface_kind);
+      if (k - j > 2 || open_off_curve)
+        for (size_t q = j; q < k; ++q) out.push_back(I.face[edges[q].triangle]);
+      j = k;
+    }
+    i = end;
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Refinement refinement_points(const fields::ClosestPointEmbedding& E, const std::vector<RefineSite>& sites,
+                             const std::vector<glm::dvec3>& points, const std::vector<uint64_t>& vertex_materials,
+                             const std::vector<uint8_t>& fixed, double protection) {
+  std::vector<RefinePoint> chosen;
+  for (const RefineSite& s : sites) {
+    // As the junction protection leaves interface particles out near curves and points: a point or curve whose
+    // closest point lies within `protection` x h of the site takes the sample (the lowest dimension first), else
+    // the nearest feature does.
+    RefinePoint best{}, nearest{};
+    double nearest_distance = INFINITY;
+    int best_rank = 3;
+    for (uint32_t f : candidate_features(E, s)) {
+      const auto cp = ref::cp_lookup(E, glm::vec3(s.at), f);
+      if (!cp.valid) continue;
+      const glm::dvec3 q(glm::vec3(cp.value));
+      const double d = glm::length(q - s.at);
+      const int rank = int(E.features[f].kind);  // 0 point, 1 curve, 2 interface
+      if (d < nearest_distance) nearest_distance = d, nearest = {q, f, cp.value.w};
+      if (rank < 2 && d < protection * cp.value.w && rank < best_rank) best_rank = rank, best = {q, f, cp.value.w};
+    }
+    chosen.push_back(best_rank < 3 ? best : nearest);
+    if (best_rank == 3 && !std::isfinite(nearest_distance)) chosen.back().h = -1;  // no feature here: skipped
+  }
+  // Crowding, against the points and then among the new ones in site order. A point in the way that lies on no
+  // feature of the site's two materials is on the wrong feature there: it moves to the sample instead.
+  float largest_h = 0;
+  for (const auto& c : chosen) largest_h = std::max(largest_h, c.h);
+  Refinement out;
+  if (chosen.empty() || !(largest_h > 0)) return out;
+  PointHash near(kCrowding * largest_h);
+  for (size_t v = 0; v < points.size(); ++v) near.add(points[v], int64_t(v));
+  std::vector<uint8_t> moved = fixed;
+  moved.resize(points.size());
+  auto move = [&](uint32_t v, const RefinePoint& to) {
+    moved[v] = 1;
+    out.moved.push_back({v, to});
+    near.add(to.position, -2);
+  };
+  for (size_t i = 0; i < chosen.size(); ++i) {
+    const RefinePoint& c = chosen[i];
+    if (!(c.h > 0)) continue;
+    const int64_t v = near.nearest_within(c.position, kCrowding * c.h);
+    const uint64_t pair = (uint64_t(1) << sites[i].m) | (uint64_t(1) << sites[i].o);
+    if (v == -1) {
+      out.added.push_back(c);
+      near.add(c.position, -2);
+    } else if (v >= 0 && !moved[size_t(v)] && (vertex_materials[size_t(v)] & pair) != pair) {
+      move(uint32_t(v), c);
+    } else if (v >= 0) {
+      for (uint32_t w : sites[i].vertices)
+        if (!moved[w] && (vertex_materials[w] & pair) != pair)
+          if (const auto to = junction_point(E, points[w], vertex_materials[w] | pair)) move(w, *to);
+    }
+  }
+  return out;
+}
+
+}  // namespace cpmesh::mesh

@@ -1,0 +1,70 @@
+#pragma once
+// Delaunay refinement of the restricted Delaunay triangulation (docs/design.md, "The guarantee"). The particles are a
+// good sample, but where one is too sparse for the surface's shape (a thin sheet, a junction of many labels, a
+// staircase), the interface triangles of the particles' Delaunay do not have the surface's topology: a face between
+// materials m and o has a vertex on no feature of m and o (a wrong face), or an interface edge lies in more than two
+// of its triangles, or ends away from a triple curve. As CGAL Mesh_3 refines a facet whose vertices are not on its
+// own patch, curve or an incident corner, each such place gets a new sample on the feature it is missing: the
+// closest point, to the place, of the feature of m and o (their interface, or a triple curve or quadruple point of m,
+// o and the materials of the place's vertices) that lies nearest; the Delaunay takes the points and the faces are
+// labelled again. A vertex on the wrong feature where a sample is due moves there; other samples nearer than
+// kCrowding x h to a vertex or to another new sample are not added, so a round that finds no room adds nothing and
+// the refinement ends.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "fields/closest_point_embedding.h"
+#include "mesh/adjacency.h"
+#include "mesh/extract.h"
+#include "mesh/tetgen.h"
+
+namespace cpmesh::mesh {
+
+// A sample to insert: local coordinates, its feature (an index into the embedding's features) and sizing h there.
+struct RefinePoint {
+  glm::dvec3 position;
+  uint32_t feature;
+  float h;
+};
+
+constexpr double kCrowding = 0.3;
+
+// A place that needs a sample: where it is (local coordinates), the two materials (indices) of the face or edge,
+// and the materials its vertices lie on (bit m for material index m, as Feature::material_mask).
+struct RefineSite {
+  glm::dvec3 at;
+  uint16_t m, o;
+  uint64_t vertex_materials;
+  std::array<uint32_t, 3> vertices;  // the face's
+};
+
+// Sites of tet faces (tet * 4 + corner): per face, where its dual Voronoi edge (from the label point of its tet to
+// that of the tet across, or to the hull's sample point outside) leaves the face's first material, found on the
+// indicator fields by bisection: the centre of the face's surface Delaunay ball, as Delaunay refinement inserts
+// (the face centroid where the edge shows no change of material).
+std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const Tets& tets, const Adjacency& adj,
+                                   const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
+                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint32_t>& faces);
+
+// The tet faces of the interface triangles around edges where an interface is not an edge-manifold bounded by
+// triple curves: edges in more than two triangles of one interface, and edges in one triangle of an interface that
+// fewer than three interface triangles share or that end at an interface vertex.
+std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& mesh);
+
+// New samples for the sites: per site the closest point of a candidate feature (found in the embedding near the
+// site): a triple curve or quadruple point whose closest point lies within `protection` x h (the junction
+// protection's distance), else the nearest. A sample within kCrowding x h of a point that lies on no feature of the
+// site's two materials moves that point there (it was on the wrong feature). Where a point on a right feature is in
+// the way, the face's vertices that lack one of the two materials move instead, each to the closest point of the
+// feature of its own materials and the two (a junction it lies next to) within h of it. Points in `fixed` (moved in
+// earlier rounds) stay. Samples near a sample chosen before them are dropped.
+struct Refinement {
+  std::vector<RefinePoint> added;
+  std::vector<std::pair<uint32_t, RefinePoint>> moved;  // point index, where it goes and its new feature
+};
+Refinement refinement_points(const fields::ClosestPointEmbedding& embedding, const std::vector<RefineSite>& sites,
+                             const std::vector<glm::dvec3>& points, const std::vector<uint64_t>& vertex_materials,
+                             const std::vector<uint8_t>& fixed, double protection);
+
+}  // namespace cpmesh::mesh
