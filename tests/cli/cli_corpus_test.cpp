@@ -1,0 +1,63 @@
+// The realistic corpus through the real binaries, checked by the independent checker on the written files
+// (docs/design.md, "The guarantee"): a mesh that holds it exits 0 and passes cpmesh-check; one that does not exits 1,
+// names what failed and where, and says so in report.json.
+#include <doctest/doctest.h>
+
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/run_tool.h"
+#include "scratch_dir.h"
+
+using cpmesh::test::contains;
+using cpmesh::test::run_tool;
+
+namespace {
+
+std::string corpus_file(const std::string& name) {
+  const auto path = cpmesh::test::scratch_dir("corpus") / (name + ".nrrd");
+  REQUIRE(run_tool("cpmesh-synth --corpus " + name + " -o " + path.string()).exit_code == 0);
+  return path.string();
+}
+
+nlohmann::json read_json(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+}  // namespace
+
+TEST_CASE("corpus islands-48: islands, pockets and a two-voxel label mesh valid, as the independent checker reads them") {
+  const std::string volume = corpus_file("islands-48");
+  const auto out = cpmesh::test::scratch_dir("islands");
+  const auto r = run_tool("cpmesh mesh " + volume + " -o " + out.string());
+  INFO(r.output);
+  REQUIRE(r.exit_code == 0);
+  CHECK(read_json(out / "report.json")["valid"] == true);
+  const auto check = run_tool("cpmesh-check --volume " + volume + " --surfaces " + (out / "interfaces.vtp").string() +
+                              " --tets " + (out / "volume.vtu").string() +
+                              " --only interfaces,closure,wrong\\ faces,crossings,conformity,labels");
+  INFO(check.output);
+  CHECK(check.exit_code == 0);
+  CHECK(contains(check.output, "manifold_interfaces          6"));
+}
+
+TEST_CASE("a mesh that breaks the guarantee is an error that names the interfaces and places, never exit 0") {
+  const std::string volume = corpus_file("noisy-48");
+  const auto out = cpmesh::test::scratch_dir("noisy");
+  // Without refinement the particles' restricted Delaunay of this noisy 12-label volume has wrong faces.
+  const auto r = run_tool("cpmesh mesh " + volume + " --only-surfaces --refinement-rounds 0 -o " + out.string());
+  INFO(r.output);
+  CHECK(r.exit_code == 1);
+  CHECK(contains(r.output, "the mesh is not valid"));
+  CHECK(contains(r.output, "wrong faces left after refinement"));
+  CHECK(contains(r.output, "faces the refinement could not mend: "));
+  const auto report = read_json(out / "report.json");
+  CHECK(report["valid"] == false);
+  CHECK(!report["invalid_because"].empty());
+  CHECK(!report["repair"]["left"].empty());
+  // The checker agrees that the written mesh is broken.
+  const auto check = run_tool("cpmesh-check --surfaces " + (out / "interfaces.vtp").string() + " --only interfaces,wrong\\ faces");
+  CHECK(check.exit_code == 1);
+}

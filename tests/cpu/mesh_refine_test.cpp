@@ -1,0 +1,53 @@
+// The Delaunay refinement's choice of faces (mesh/refine.h): the faces around an interface edge in more than two of
+// its triangles, or open away from a triple curve, and none of a closed surface or of a sheet ending on a curve.
+#include <doctest/doctest.h>
+
+#include "mesh/refine.h"
+
+using namespace cpmesh;
+using namespace cpmesh::mesh;
+
+namespace {
+
+constexpr auto kInterface = uint8_t(fields::FeatureKind::interface);
+constexpr auto kCurve = uint8_t(fields::FeatureKind::triple_curve);
+
+// The surface of tetrahedron 0-1-2-3 between materials 0 and 1, face ids 10, 11, ...
+InterfaceMesh closed_tetrahedron() {
+  InterfaceMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
+  m.vertex_kind.assign(5, kInterface);
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  for (uint32_t t = 0; t < 4; ++t) {
+    m.pair.push_back({0, 1});
+    m.face.push_back(10 + t);
+  }
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("refinement faces: none on a closed interface, all three around a fin") {
+  InterfaceMesh m = closed_tetrahedron();
+  CHECK(nonmanifold_faces(m).empty());
+  m.triangles.push_back({1, 2, 4});  // a third triangle of interface 0/1 on edge 1-2
+  m.pair.push_back({0, 1});
+  m.face.push_back(20);
+  // Edge 1-2 is in three triangles (10, 13, 20); the fin's other two edges are open off any curve.
+  CHECK(nonmanifold_faces(m) == std::vector<uint32_t>{10, 13, 20});
+}
+
+TEST_CASE("refinement faces: interfaces ending on a triple curve are right, ending on an interface vertex are not") {
+  // Tet 0-1-2-3 of material 1 and tet 1-2-3-4 of material 2 in material 0: interfaces 0/1 and 0/2 end on the triple
+  // curve 1-2-3 (0, 1, 2), where the single triangle of 1/2 lies.
+  InterfaceMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
+  m.vertex_kind = {kInterface, kCurve, kCurve, kCurve, kInterface};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 4}, {1, 4, 3}, {2, 3, 4}, {1, 2, 3}};
+  m.pair = {{0, 1}, {0, 1}, {0, 1}, {0, 2}, {0, 2}, {0, 2}, {1, 2}};
+  m.face = {0, 1, 2, 3, 4, 5, 6};
+  CHECK(nonmanifold_faces(m).empty());
+  // With vertex 1 off the curve, the edges from it along the curve are open off the curves in all three interfaces.
+  m.vertex_kind[1] = kInterface;
+  CHECK(nonmanifold_faces(m) == std::vector<uint32_t>{0, 1, 3, 4, 6});
+}
