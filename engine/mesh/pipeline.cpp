@@ -53,9 +53,21 @@ io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vecto
   return out;
 }
 
+void check_label_limit(const io::LabelVolume& v) {
+  std::vector<uint8_t> seen(65536);
+  size_t count = 0;
+  for (uint16_t l : v.labels) count += seen[l] ? 0 : (seen[l] = 1);
+  if (!seen[0]) ++count;  // the outside is label 0
+  if (count > kMaxMaterials)
+    throw std::invalid_argument(v.source + ": " + std::to_string(count) + " materials (the labels and the outside, label 0); "
+                                "the particle system supports at most " + std::to_string(kMaxMaterials) +
+                                " (merge or drop labels with --materials)");
+}
+
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const MeshOptions& options,
                        const StageCallback& on_stage) {
   const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
+  check_label_limit(options.materials.empty() ? input : selected);  // in a moment, not after the fields
   const io::LabelVolume volume =
       fields::close_at_faces(options.materials.empty() ? input : selected, fields::face_padding(options.fields, input));
   using clock = std::chrono::steady_clock;

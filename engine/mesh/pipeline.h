@@ -58,6 +58,11 @@ struct MeshOptions {
   size_t max_particles = 5'000'000;
 };
 
+// Materials (labels and the outside) the particle system takes: features carry their materials as 64-bit masks.
+constexpr size_t kMaxMaterials = 64;
+// Throws std::invalid_argument naming the volume's source when it has more materials than that.
+void check_label_limit(const io::LabelVolume& volume);
+
 // The volume with options.materials applied (a copy); throws std::invalid_argument naming a missing label.
 io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups);
 

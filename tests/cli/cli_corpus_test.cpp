@@ -3,6 +3,8 @@
 // names what failed and where, and says so in report.json.
 #include <doctest/doctest.h>
 
+#include <chrono>
+#include <filesystem>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -60,4 +62,17 @@ TEST_CASE("a mesh that breaks the guarantee is an error that names the interface
   // The checker agrees that the written mesh is broken.
   const auto check = run_tool("cpmesh-check --surfaces " + (out / "interfaces.vtp").string() + " --only interfaces,wrong\\ faces");
   CHECK(check.exit_code == 1);
+}
+
+TEST_CASE("a volume over the material limit fails at once, naming the file and the limit, and writes nothing") {
+  const std::string volume = corpus_file("parcellation-300");
+  const auto out = cpmesh::test::scratch_dir("many") / "out";
+  const auto start = std::chrono::steady_clock::now();
+  const auto r = run_tool("cpmesh mesh " + volume + " -o " + out.string());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  CHECK(r.exit_code == 1);
+  CHECK(contains(r.output, volume + ": 301 materials"));
+  CHECK(contains(r.output, "at most 64"));
+  CHECK(seconds < 30);  // a bound on a hang (before this check the fields ran for minutes first), not a timing
+  CHECK(!std::filesystem::exists(out));
 }
