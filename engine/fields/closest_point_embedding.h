@@ -1,5 +1,5 @@
 #pragma once
-// The closest point embedding (seed paper Sec. 4; DESIGN.md): for every feature (an interface between two materials,
+// The closest point embedding (seed paper Sec. 4; docs/design.md): for every feature (an interface between two materials,
 // a triple curve of three, a quadruple point of four) a narrow band of voxel cells ("coarse level") each owning a
 // block of sub^3 fine points (spacing S = 1/sub voxel) that store the closest point on that feature. Built once, on
 // the CPU, by Newton projection onto the zero sets of f_i - f_j (one constraint for interfaces, two for curves) with

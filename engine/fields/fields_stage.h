@@ -1,6 +1,6 @@
 #pragma once
 // The fields stage of the pipeline in one call: indicator fields, closest point embedding, sizing field, with the
-// time and memory of each step (DESIGN.md: GenerateDistanceVolumes, GenerateSizingFields, BuildClosestPointEmbedding).
+// time and memory of each step (docs/design.md, "Pipeline and data flow").
 #include "fields/sizing_field.h"
 
 namespace cpmesh::fields {

@@ -1,5 +1,5 @@
 #pragma once
-// Per-material indicator fields (seed paper Sec. 3.1, 3.3; DESIGN.md "Multi-material representation").
+// Per-material indicator fields (seed paper Sec. 3.1, 3.3; docs/design.md, "Multi-material rules").
 //
 // For each material m: the signed distance to the boundary of its voxel mask (exact EDT; positive inside), smoothed
 // by a Gaussian under the constraint that every voxel keeps its sign (Whitaker's constrained antialiasing): the

@@ -8,7 +8,7 @@
 
 namespace cpmesh::io {
 
-// Per-vertex feature of the particle that made the vertex (DESIGN.md: quadruple point / triple curve / interface).
+// Per-vertex feature of the particle that made the vertex (docs/design.md: quadruple point / triple curve / interface).
 enum class VertexFeature : uint8_t { quadruple_point = 0, triple_curve = 1, interface = 2 };
 
 // Interface triangles: triangle t separates materials triangle_pair[t][0] and triangle_pair[t][1].

@@ -1,5 +1,5 @@
 #pragma once
-// The synthetic test volumes of DESIGN.md with their known answers, in physical units (origin 0, voxel (i,j,k) at
+// The synthetic test volumes of docs/design.md with their known answers, in physical units (origin 0, voxel (i,j,k) at
 // (i,j,k) * spacing). Labels come from testing each voxel centre against the analytic shapes.
 //   sphere:     label 1 inside a ball (default radius 0.35 * size voxels), 0 outside.
 //   wedge-ball: background 0; a ball (radius 50 voxels at size 128, scaled with size) cut into wedges 1, 2, 3 by three

@@ -1,5 +1,5 @@
 #pragma once
-// Mesh quality measures (DESIGN.md "Quality measures"), computed once here for the CLI, the report and the tests.
+// Mesh quality measures (docs/design.md, "Measures of quality"), computed once here for the CLI, the report and the tests.
 //  - Triangles: radius ratio 2 r_in / r_circ (1 for equilateral): mean, min, share below 0.5.
 //  - Interfaces: manifold (no edge in more than two of its triangles) and bounded by triple curves (an edge in only
 //    one of its triangles has both ends on a triple curve or quadruple point).
