@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <numeric>
 #include <optional>
+#include <tuple>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -213,6 +214,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   std::vector<uint8_t> moved;  // points the refinement moved: they stay where they went
   size_t fewest_faces = SIZE_MAX;
   int stalled = 0;
+  // The round with the fewest faces to refine: where later rounds made it worse (samples crowding a thin sheet's
+  // two sides), the refinement ends with that round's mesh.
+  struct Best {
+    Tets T;
+    Adjacency adj;
+    std::vector<uint16_t> material, hull;
+    std::vector<glm::dvec3> points;
+    std::vector<uint8_t> kind;
+    std::vector<uint64_t> vertex_materials;
+    std::vector<float> vertex_h;
+    std::vector<uint32_t> vertex_feature;
+    MeshReport report;
+  } best;
   for (int round = 0;; ++round) {
     material = label_tets(F.fields, T);
     hull = hull_materials(F.fields, T, adj);
@@ -231,8 +245,18 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     }
     // A round that leaves more faces to refine than the best round three rounds ago ends it: what is left cycles.
     stalled = faces.size() < fewest_faces ? 0 : stalled + 1;
+    const bool last = sites.empty() || round == options.repair_rounds || stalled == 3;
+    if (faces.size() < fewest_faces && !last)
+      best = {T, adj, material, hull, points, kind, vertex_materials, vertex_h, vertex_feature, rep};
+    if (faces.size() > fewest_faces && last) {
+      const int rounds = rep.refinement_rounds;
+      std::tie(T, adj, material, hull, points, kind, vertex_materials, vertex_h, vertex_feature, rep) =
+          std::tie(best.T, best.adj, best.material, best.hull, best.points, best.kind, best.vertex_materials,
+                   best.vertex_h, best.vertex_feature, best.report);
+      rep.refinement_rounds = rounds;
+    }
     fewest_faces = std::min(fewest_faces, faces.size());
-    if (sites.empty() || round == options.repair_rounds || stalled == 3) break;
+    if (last) break;
     const Refinement extra =
         refinement_points(F.embedding, sites, points, vertex_materials, moved, options.junction_protection);
     if (extra.added.empty() && extra.moved.empty()) break;
