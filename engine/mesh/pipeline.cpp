@@ -1,5 +1,6 @@
 #include "mesh/pipeline.h"
 #include "mesh/refine.h"
+#include "mesh/small_labels.h"
 
 #include <algorithm>
 #include <atomic>
@@ -67,13 +68,16 @@ void check_label_limit(const io::LabelVolume& v) {
 
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const MeshOptions& options,
                        const StageCallback& on_stage) {
-  const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
-  check_label_limit(options.materials.empty() ? input : selected);  // in a moment, not after the fields
-  const io::LabelVolume volume =
-      fields::close_at_faces(options.materials.empty() ? input : selected, fields::face_padding(options.fields, input));
-  using clock = std::chrono::steady_clock;
   MeshResult result;
   MeshReport& rep = result.report;
+  const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
+  const io::LabelVolume& chosen = options.materials.empty() ? input : selected;
+  rep.dropped_labels = small_labels(chosen, options.min_label_voxels);
+  const io::LabelVolume merged = rep.dropped_labels.empty() ? io::LabelVolume{} : merge_labels(chosen, rep.dropped_labels);
+  const io::LabelVolume& meshed = rep.dropped_labels.empty() ? chosen : merged;
+  check_label_limit(meshed);  // in a moment, not after the fields
+  const io::LabelVolume volume = fields::close_at_faces(meshed, fields::face_padding(options.fields, input));
+  using clock = std::chrono::steady_clock;
   for (int a = 0; a < 3; ++a) rep.face_padding[a] = (volume.dims[a] - input.dims[a]) / 2;
   auto t = clock::now();
   const int stage_count = options.only_surfaces ? 6 : 7;

@@ -31,6 +31,7 @@
 #include "io/mesh.h"
 #include "io/volume.h"
 #include "mesh/quality.h"
+#include "mesh/small_labels.h"
 #include "mesh/smooth.h"
 #include "mesh/volume_mesh.h"
 #include "mesh/tetgen.h"
@@ -49,6 +50,8 @@ struct MeshOptions {
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
   int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
                                // are left (refine.h); each adds samples only where there is room
+  // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.
+  int64_t min_label_voxels = 8;
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
   std::vector<std::vector<uint16_t>> materials;
@@ -94,6 +97,7 @@ struct RefinementLeft {
 
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
+  std::vector<DroppedLabel> dropped_labels;             // labels under MeshOptions::min_label_voxels
   std::vector<StepTime> steps;                          // the parts of "fields", "delaunay and extraction", "volume mesh"
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)

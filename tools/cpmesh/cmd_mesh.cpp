@@ -92,6 +92,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "interface (0: off); keeps junction triangles from degenerating")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  sub->add_option("--min-label-voxels", m.min_label_voxels,
+                  "Labels with fewer voxels join the label they touch most (report.json: dropped_labels); 0: keep all")
+      ->check(CLI::Range(int64_t(0), int64_t(1) << 40))
+      ->capture_default_str();
   sub->add_option("--refinement-rounds", m.repair_rounds,
                   "Rounds of Delaunay refinement where faces are wrong or interfaces not manifold (0: none; a mesh left "
                   "invalid is an error)")
@@ -236,6 +240,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
             j["volume_mesh"]["unsplit_because"] = rep.volume_unsplit_because;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
+            j["dropped_labels"] = nlohmann::json::array();
+            for (const auto& d : rep.dropped_labels)
+              j["dropped_labels"].push_back({{"label", d.label}, {"voxels", d.voxels}, {"merged_into", d.merged_into},
+                                             {"why", "fewer than " + std::to_string(o->mesh.min_label_voxels) +
+                                                         " voxels (--min-label-voxels)"}});
             const std::vector<std::string> failures = mesh::guarantee_failures(rep);
             j["valid"] = failures.empty();
             j["invalid_because"] = failures;
@@ -270,6 +279,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu points added by refinement, %zu left\n",
                         rep.off_feature_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
                         rep.refinement_points, rep.wrong_faces);
+            for (const auto& d : rep.dropped_labels)
+              std::printf("  label %u dropped: %lld voxels, fewer than %lld (--min-label-voxels); merged into %u\n",
+                          d.label, (long long)d.voxels, (long long)o->mesh.min_label_voxels, d.merged_into);
             std::printf("  all interfaces: mean radius ratio %.3f, min %.3f; %zu of %zu manifold; %zu of %zu materials "
                         "closed; %zu crossing triangle pairs\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
