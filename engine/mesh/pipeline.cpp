@@ -196,9 +196,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
 
-  // Delaunay, labels, repair, then Delaunay refinement (refine.h): where wrong faces are left, and then where an
-  // interface is not a manifold bounded by triple curves, samples are added on the missing features (inserted into
-  // the tetrahedralization: DelaunayMesh::insert) and the tets labelled again, until none is needed or none fits.
+  // Delaunay, labels, repair, then Delaunay refinement (refine.h): where wrong faces are left or an interface is not
+  // a manifold bounded by triple curves, samples are added on the missing features (inserted into the
+  // tetrahedralization: DelaunayMesh::insert; rebuilt where points moved) and the tets labelled again, until none
+  // is needed or none fits.
   begin("delaunay and extraction");
   double tetrahedralization_seconds = 0;  // the rest of the stage (from its start) is the extraction
   const auto stage_start = t;             // when the stage began (the last stage_done)
