@@ -2,14 +2,15 @@
 // Particle energy and its gradient by an exact tree walk (octree::TreeWalk; seed paper Eq. 1-2, DESIGN.md):
 //   d_ij = |p_i - p_j| / (2 cos(pi/6) min(h_i, h_j)),  E_ij = cot(d pi/2) + d pi/2 - pi/2 for d <= 1, else 0.
 // Particle i feels particle j when j lies on i's feature or on a lower-dimensional feature bounding it: the
-// materials of j's feature include those of i's (material sets as 64-bit masks). Nodes whose box is farther than
+// materials of j's feature include those of i's (fields::MaterialSet: a 64-bit mask, and with EXACT_SETS four 16-bit
+// material slots). Nodes whose box is farther than
 // 2 cos(pi/6) h_i are pruned: with the energy's compact support that is exact (theta = 0). With theta > 0 (the
 // paper's Barnes-Hut mode) a node that does not hold the walker, is seen under size / distance < theta and whose
-// particles all interact with the walker (the AND of their feature masks) counts as its particles lumped at their
+// particles all interact with the walker (the intersection of their material sets includes the walker's) counts as its particles lumped at their
 // centre of mass with the node's smallest h.
 // Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1-4 node moments samplerBuffer (box min + min h, box max,
-//           centre + count) and usamplerBuffer (AND mask); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h);
-//           7 masks usamplerBuffer (per particle: its feature's material mask in xy); 8 result vec4[n] (gradient of
+//           centre + count) and usamplerBuffer (the intersection of the node's material sets); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h);
+//           7 masks usamplerBuffer (per particle: its feature's material set, material_set.glsl); 8 result vec4[n] (gradient of
 //           E_i wrt p_i in xyz, E_i in w); 9 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran
 //           out); 10 visits uint[n] (nodes visited).
 // The masks are per particle, not per feature (features[j], then feature_masks[that]), so the leaf scans read each
@@ -28,6 +29,7 @@
 // out is reported, never silent. Reference: ref::particle_energy (brute force).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "material_set.glsl"
 #include "pair_energy.glsl"
 
 layout(local_size_x = 64) in;
@@ -61,7 +63,8 @@ void main() {
   const vec4 pi4 = texelFetch(particles, int(i));
   const vec3 p = pi4.xyz;
   const float hi_ = pi4.w;
-  const uvec2 mask = texelFetch(masks, int(i)).xy;
+  const uvec4 mine = texelFetch(masks, int(i));  // i's material set: mask64, slots
+  const uvec4 mine2 = ms_slots2(mine.zw);
 #ifdef NEIGHBOUR_LIST
   const float cutoff = SUPPORT * hi_ * (1.0 + pc.skin);
   const uint list_start = i * pc.capacity;
@@ -88,8 +91,8 @@ void main() {
       const vec3 extent = up - lo;
       const vec3 delta = p - com.xyz;
       const float r = length(delta);
-      const uvec2 node_mask = texelFetch(m_mask, int(id)).xy;
-      if (max(extent.x, max(extent.y, extent.z)) < pc.theta * r && (node_mask & mask) == mask) {
+      const uvec4 node_mask = texelFetch(m_mask, int(id));
+      if (max(extent.x, max(extent.y, extent.z)) < pc.theta * r && ms_texel_includes(node_mask, mine.xy, mine2)) {
         const float scale = SUPPORT * min(hi_, texelFetch(m_lo, int(id)).w);
         const float d = max(r / scale, 1e-3);
         if (d < 1.0) {
@@ -110,8 +113,7 @@ void main() {
         ++work;
         const uint j = order[q];
         if (j == i) continue;
-        const uvec2 mj = texelFetch(masks, int(j)).xy;
-        if ((mj & mask) != mask) continue;  // j's feature does not bound i's
+        if (!ms_texel_includes(texelFetch(masks, int(j)), mine.xy, mine2)) continue;  // j's feature does not bound i's
         const vec4 pj = texelFetch(particles, int(j));
         const vec3 delta = p - pj.xyz;
         const float r = length(delta);

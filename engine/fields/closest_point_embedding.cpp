@@ -25,31 +25,36 @@ namespace cpmesh::fields {
 
 namespace {
 
-using MaterialSet = std::array<uint16_t, 4>;
+using MaterialKey = std::array<uint16_t, 4>;
 constexpr uint16_t kNone = 0xffff;
 
-// Every voxel of the bricks in rows r (z, y of bricks; every x) with the values of all fields there: visit(voxel,
-// values), values[m] = fields[m] at the voxel (as BrickField::at), brick by brick, each brick's storage looked up once
-// per field. The fields share the grid, so their bricks (fields_brick_rows: the range to split among threads).
+// Every voxel of the bricks in rows r (z, y of bricks; every x) with the values of the fields near it: visit(voxel,
+// near, values), values[k] = fields[near[k]] at the voxel (as BrickField::at), near the brick's materials_near (every
+// other field is -band there), brick by brick, each brick's storage looked up once per field. The fields share the
+// grid, so their bricks (fields_brick_rows: the range to split among threads).
 tbb::blocked_range2d<int> fields_brick_rows(const IndicatorFields& F) {
   const glm::ivec3 bricks = F.fields.empty() ? glm::ivec3(0) : F.fields[0].brick_dims();
   return tbb::blocked_range2d<int>(0, bricks.z, 0, bricks.y);
 }
 template <class Visit>
 void for_each_voxel_values(const IndicatorFields& F, const tbb::blocked_range2d<int>& r, Visit&& visit) {
-  const size_t M = F.material_count();
-  if (M == 0) return;
+  if (F.material_count() == 0) return;
   const glm::ivec3 dims = F.grid.dims, bricks = F.fields[0].brick_dims();
   constexpr int kB = BrickField::kBrick;
-  std::vector<const float*> data(M);
-  std::vector<float> constant(M), values(M);
+  std::vector<const float*> data;
+  std::vector<float> constant, values;
   for (int bz = r.rows().begin(); bz < r.rows().end(); ++bz)
     for (int by = r.cols().begin(); by < r.cols().end(); ++by)
       for (int bx = 0; bx < bricks.x; ++bx) {
         const glm::ivec3 b(bx, by, bz);
+        const std::span<const uint16_t> near = F.materials_near(glm::dvec3(b * kB));
+        const size_t M = near.size();
+        data.resize(M);
+        constant.resize(M);
+        values.resize(M);
         for (size_t m = 0; m < M; ++m) {
-          data[m] = F.fields[m].brick_values(b);
-          constant[m] = F.fields[m].brick_constant(b);
+          data[m] = F.fields[near[m]].brick_values(b);
+          constant[m] = F.fields[near[m]].brick_constant(b);
         }
         const glm::ivec3 lo = b * kB, hi = glm::min(lo + kB, dims);
         for (int k = lo.z; k < hi.z; ++k)
@@ -57,7 +62,7 @@ void for_each_voxel_values(const IndicatorFields& F, const tbb::blocked_range2d<
             for (int i = lo.x; i < hi.x; ++i) {
               const size_t q = size_t(((k - lo.z) * kB + (j - lo.y)) * kB + (i - lo.x));
               for (size_t m = 0; m < M; ++m) values[m] = data[m] ? data[m][q] : constant[m];
-              visit(glm::ivec3(i, j, k), values.data());
+              visit(glm::ivec3(i, j, k), near, values.data());
             }
       }
 }
@@ -145,9 +150,9 @@ int materials_of(const Feature& f, int* m) {
   return k;
 }
 
-MaterialSet set_of(std::vector<int> m) {
+MaterialKey set_of(std::vector<int> m) {
   std::sort(m.begin(), m.end());
-  MaterialSet s = {kNone, kNone, kNone, kNone};
+  MaterialKey s = {kNone, kNone, kNone, kNone};
   for (size_t a = 0; a < m.size() && a < 4; ++a) s[a] = uint16_t(m[a]);
   return s;
 }
@@ -251,7 +256,7 @@ glm::dvec3 junction_extrapolation(const IndicatorFields& F, const Feature& featu
   // fields on into the fourth material, where their difference is the extension of their distance fields).
   auto beyond_patch = [&](const glm::dvec3& x, double level) {
     const glm::ivec3 v = glm::ivec3(glm::round(x / F.grid.spacing));
-    for (size_t o = 0; o < F.fields.size(); ++o) {
+    for (uint16_t o : F.materials_near(x / F.grid.spacing)) {
       if (int(o) == m[0] || int(o) == m[1] || int(o) == m[2]) continue;
       // The interpolant stays within about a voxel of its nearest sample (as in build_embedding's intruder test).
       if (F.fields[o].at(v.x, v.y, v.z) < level - 2.0 * h) continue;
@@ -588,10 +593,10 @@ double feature_distance(const IndicatorFields& F, const Feature& feature, const 
   // Another material's field above the feature's: the point lies inside that material, at about the difference (the
   // fields are signed distances near their boundaries). This also settles points where the feature's fields are
   // clamped at the band's depth (they meet everywhere there): the material the point lies in is far above them.
+  // Only the materials near x can be above -band, the floor of the feature's fields too (IndicatorFields::near_list).
   const double lowest = *std::min_element(f, f + count);
-  const size_t M = F.material_count();
   std::vector<const BrickField*> others;
-  for (size_t c = 0; c < M; ++c)
+  for (uint16_t c : F.materials_near(x / F.grid.spacing))
     if (std::find(m, m + count, int(c)) == m + count) others.push_back(&F.fields[c]);
   std::vector<double> value(others.size());
   if (!others.empty()) BrickField::sample_cubic_many(others.data(), int(others.size()), x / F.grid.spacing, value.data(), nullptr);
@@ -634,29 +639,28 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   E.grid = F.grid;
   E.sub = embedding_subcells(options);
   const Grid& grid = F.grid;
-  const int M = int(F.material_count());
   const double h = grid.min_spacing();
 
   // 1. Features: material sets meeting in a 2x2x2 group of voxels (the dual cell around a grid corner), judged by the
   //    argmax of the fields at the voxel centres (which is each voxel's label). Quadruple-point candidates keep the
   //    dual cell's centre as a Newton start.
-  std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
-  std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
+  std::map<MaterialKey, std::vector<glm::dvec3>> quad_starts;
+  std::map<MaterialKey, std::vector<glm::ivec3>> curve_cells;
   // Every material set found, and where, in bins of kBin^3 voxels (see step 3).
   constexpr int kBin = 4;
   const glm::ivec3 bins = (grid.dims + kBin - 1) / kBin;
   const size_t bin_count = size_t(bins.x) * size_t(bins.y) * size_t(bins.z);
   auto bin_of = [&](int i, int j, int kk) { return (size_t(kk / kBin) * size_t(bins.y) + size_t(j / kBin)) * size_t(bins.x) + size_t(i / kBin); };
-  std::map<MaterialSet, std::vector<uint8_t>> found_in;
+  std::map<MaterialKey, std::vector<uint8_t>> found_in;
   std::vector<uint16_t> label_index(grid.voxel_count());
   tbb::parallel_for(fields_brick_rows(F), [&](const tbb::blocked_range2d<int>& r) {
-    for_each_voxel_values(F, r, [&](const glm::ivec3& c, const float* f) {
+    for_each_voxel_values(F, r, [&](const glm::ivec3& c, std::span<const uint16_t> mats, const float* f) {
       int best = 0;
       float bv = -1e30f;
-      for (int mm = 0; mm < M; ++mm)
-        if (f[mm] > bv) {
-          bv = f[mm];
-          best = mm;
+      for (size_t k = 0; k < mats.size(); ++k)
+        if (f[k] > bv) {
+          bv = f[k];
+          best = mats[k];
         }
       label_index[grid.index(c.x, c.y, c.z)] = uint16_t(best);
     });
@@ -664,9 +668,9 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   // (Each z layer of dual cells in parallel; the layers' finds are then merged in layer order, so every list keeps the
   // order of one loop over the volume.)
   struct LayerFinds {
-    std::map<MaterialSet, std::vector<size_t>> bins;
-    std::map<MaterialSet, std::vector<glm::dvec3>> quad_starts;
-    std::map<MaterialSet, std::vector<glm::ivec3>> curve_cells;
+    std::map<MaterialKey, std::vector<size_t>> bins;
+    std::map<MaterialKey, std::vector<glm::dvec3>> quad_starts;
+    std::map<MaterialKey, std::vector<glm::ivec3>> curve_cells;
   };
   std::vector<LayerFinds> layers(size_t(std::max(grid.dims.z - 1, 0)));
   tbb::parallel_for(tbb::blocked_range<int>(0, int(layers.size())), [&](const tbb::blocked_range<int>& r) {
@@ -677,7 +681,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
           uint16_t present[8];
           const int n = grid.corner_labels(i, j, kk, [&](size_t v) { return label_index[v]; }, present);
           // Every subset of 2..4 materials present (a corner of more than 4 materials is degenerate; its subsets still count).
-          for_each_material_subset(present, n, [&](const MaterialSet& s, int bits) {
+          for_each_material_subset(present, n, [&](const MaterialKey& s, int bits) {
             auto& bins_of_set = layer.bins[s];
             if (bins_of_set.empty() || bins_of_set.back() != bin_of(i, j, kk)) bins_of_set.push_back(bin_of(i, j, kk));
             if (bits == 4) layer.quad_starts[s].push_back(grid.local(glm::dvec3(i + 0.5, j + 0.5, kk + 0.5)));
@@ -707,7 +711,11 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
       const size_t c = size_t(std::count_if(s.begin(), s.end(), [](uint16_t x) { return x != kNone; }));
       if (c == count) E.features.push_back(Feature{kind_of(c), s});
     }
-  std::map<MaterialSet, uint32_t> feature_of;
+  if (E.features.size() > kMaxFeatures)  // the coarse cells' keys hold the feature in 16 bits
+    throw std::runtime_error("the closest point embedding supports at most " + std::to_string(kMaxFeatures) +
+                             " features (interfaces, triple curves, quadruple points); this volume has " +
+                             std::to_string(E.features.size()));
+  std::map<MaterialKey, uint32_t> feature_of;
   for (size_t f = 0; f < E.features.size(); ++f) feature_of[E.features[f].materials] = uint32_t(f);
   for (auto& [s, cells] : curve_cells) E.features[feature_of[s]].components = count_components(cells);
 
@@ -764,11 +772,11 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
   tbb::parallel_for(fields_brick_rows(F), [&](const tbb::blocked_range2d<int>& r) {
     auto& out = local_entries.local();
     std::vector<int> near;
-    for_each_voxel_values(F, r, [&](const glm::ivec3& c, const float* f) {
+    for_each_voxel_values(F, r, [&](const glm::ivec3& c, std::span<const uint16_t> mats, const float* f) {
       near.clear();
-      for (int mm = 0; mm < M; ++mm)
-        if (f[mm] > -reach) near.push_back(mm);
-      for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialSet& s, int bits) {
+      for (size_t k = 0; k < mats.size(); ++k)
+        if (f[k] > -reach) near.push_back(mats[k]);
+      for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialKey& s, int bits) {
         if (curves_only && bits < 3) return;
         const auto it = feature_of.find(s);
         if (it != feature_of.end() && near_found[it->second][bin_of(c.x, c.y, c.z)])
@@ -868,7 +876,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
           int intruder = -1;
           double worst = own + 1e-4 * h;
           const glm::ivec3 nearest = glm::clamp(glm::ivec3(glm::round(cp / grid.spacing)), glm::ivec3(0), grid.dims - 1);
-          for (int mm = 0; mm < M; ++mm) {
+          for (const int mm : F.materials_near(cp / grid.spacing)) {  // no other can rise above the feature's here
             if (std::find(m, m + count, mm) != m + count) continue;
             // The interpolant stays within about a voxel of its nearest sample (distance fields change by at most
             // their spacing per voxel): a material that far below cannot win here, and needs no cubic sample.

@@ -20,6 +20,7 @@
 
 #include "host/host_array.h"
 #include "fields/indicator_fields.h"
+#include "fields/material_set.h"
 
 namespace cpmesh::fields {
 
@@ -30,17 +31,18 @@ struct Feature {
   std::array<uint16_t, 4> materials = {0xffff, 0xffff, 0xffff, 0xffff};  // indices into IndicatorFields::labels, ascending
   uint32_t components = 1;  // separate pieces with this material set: curves (26-connected), points (located)
   int material_count() const { return 4 - int(kind == FeatureKind::interface) * 2 - int(kind == FeatureKind::triple_curve); }
-  // Bit m set for each material m of the feature: the particle system's interaction rule and the mesh repair compare
-  // these. Throws for a material index of 64 or more (the particle system supports at most 64 materials).
-  uint64_t material_mask() const {
-    uint64_t m = 0;
-    for (int a = 0; a < material_count(); ++a) {
-      if (materials[size_t(a)] >= 64) throw std::runtime_error("the particle system supports at most 64 materials");
-      m |= uint64_t(1) << materials[size_t(a)];
-    }
-    return m;
-  }
+  // The particle system's interaction rule and the mesh's wrong-face test compare these.
+  MaterialSet material_set() const { return MaterialSet(std::span(materials.data(), size_t(material_count()))); }
 };
+
+constexpr size_t kMaxFeatures = 65535;
+
+// Each feature's material set, in feature order (what the particle system's masks hold).
+inline std::vector<MaterialSet> material_sets(const std::vector<Feature>& features) {
+  std::vector<MaterialSet> out;
+  for (const Feature& f : features) out.push_back(f.material_set());
+  return out;
+}
 
 struct EmbeddingOptions {
   int sub = 0;              // fine points per voxel and axis (S = 1 / sub); 0: embedding_subcells() chooses

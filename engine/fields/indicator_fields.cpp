@@ -356,23 +356,68 @@ BrickField add_junction_offset(uint16_t label, BrickField& field, double band, f
 
 }  // namespace
 
+std::span<const uint16_t> IndicatorFields::materials_near(const glm::dvec3& ijk) const {
+  if (fields.empty()) return {};
+  const glm::ivec3 bricks = fields[0].brick_dims();
+  const glm::ivec3 v = glm::clamp(glm::ivec3(glm::floor(ijk)), glm::ivec3(0), grid.dims - 1);
+  const glm::ivec3 b = glm::min(v / BrickField::kBrick, bricks - 1);
+  const size_t i = (size_t(b.z) * size_t(bricks.y) + size_t(b.y)) * size_t(bricks.x) + size_t(b.x);
+  return std::span(near_list.data() + near_begin[i], near_begin[i + 1] - near_begin[i]);
+}
+
 int IndicatorFields::material_at(const glm::dvec3& ijk) const {
   int best = 0;
   double best_value = -std::numeric_limits<double>::infinity();
   constexpr size_t kBatch = 16;  // fields sampled together
   const BrickField* batch[kBatch];
   double values[kBatch];
-  for (size_t first = 0; first < fields.size(); first += kBatch) {
-    const size_t count = std::min(kBatch, fields.size() - first);
-    for (size_t k = 0; k < count; ++k) batch[k] = &fields[first + k];
+  const std::span<const uint16_t> near = materials_near(ijk);
+  for (size_t first = 0; first < near.size(); first += kBatch) {
+    const size_t count = std::min(kBatch, near.size() - first);
+    for (size_t k = 0; k < count; ++k) batch[k] = &fields[near[first + k]];
     BrickField::sample_linear_many(batch, int(count), ijk, values);
     for (size_t k = 0; k < count; ++k)
       if (values[k] > best_value) {
         best_value = values[k];
-        best = int(first + k);
+        best = int(near[first + k]);
       }
   }
   return best;
+}
+
+void index_materials_near(IndicatorFields& F) {
+  F.near_begin.assign(1, 0);
+  F.near_list.clear();
+  if (F.fields.empty()) return;
+  const glm::ivec3 bricks = F.fields[0].brick_dims();
+  const float floor = -float(F.band);
+  auto index = [&](const glm::ivec3& b) {
+    return (size_t(b.z) * size_t(bricks.y) + size_t(b.y)) * size_t(bricks.x) + size_t(b.x);
+  };
+  // Per brick, the materials present in it; then each brick's list is the union over its 3x3x3 neighbourhood.
+  std::vector<std::vector<uint16_t>> in(size_t(bricks.x) * size_t(bricks.y) * size_t(bricks.z));
+  for (size_t m = 0; m < F.fields.size(); ++m)
+    for (int z = 0; z < bricks.z; ++z)
+      for (int y = 0; y < bricks.y; ++y)
+        for (int x = 0; x < bricks.x; ++x) {
+          const glm::ivec3 b(x, y, z);
+          if (F.fields[m].allocated(b) || F.fields[m].brick_constant(b) > floor) in[index(b)].push_back(uint16_t(m));
+        }
+  std::vector<uint16_t> near;
+  for (int z = 0; z < bricks.z; ++z)
+    for (int y = 0; y < bricks.y; ++y)
+      for (int x = 0; x < bricks.x; ++x) {
+        near.clear();
+        const glm::ivec3 lo = glm::max(glm::ivec3(x, y, z) - 1, glm::ivec3(0));
+        const glm::ivec3 hi = glm::min(glm::ivec3(x, y, z) + 1, bricks - 1);
+        for (int c = lo.z; c <= hi.z; ++c)
+          for (int b = lo.y; b <= hi.y; ++b)
+            for (int a = lo.x; a <= hi.x; ++a) near.insert(near.end(), in[index({a, b, c})].begin(), in[index({a, b, c})].end());
+        std::sort(near.begin(), near.end());
+        near.erase(std::unique(near.begin(), near.end()), near.end());
+        F.near_list.insert(F.near_list.end(), near.begin(), near.end());
+        F.near_begin.push_back(uint32_t(F.near_list.size()));
+      }
 }
 
 size_t IndicatorFields::memory_bytes() const {
@@ -685,6 +730,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           add_junction_offset(label, field, band, keep, junction_corners, angles, junction_distance, grid, fade));
     out.fields.push_back(std::move(field));
   }
+  index_materials_near(out);
   return out;
 }
 

@@ -67,11 +67,24 @@ struct IndicatorFields {
   uint64_t protected_voxels = 0;           // voxels in parts thinner than ~2r, left untightened
   double thin_radius = 0;                  // voxels: the r of protected_voxels (0: thin parts not measured)
 
+  // Per brick of the fields (BrickField::brick_dims, x fastest): the materials whose fields are not -band all through
+  // that brick and its 26 neighbours, ascending, at near_list[near_begin[b] .. near_begin[b + 1]). Any other
+  // material's field is -band (its floor) everywhere within two voxels of the brick, where every cubic or linear
+  // sample of a point in the brick reads, so no other material can win an argmax there or rise above a feature's
+  // fields: what is near a point is a few materials however many the volume has.
+  std::vector<uint32_t> near_begin;
+  std::vector<uint16_t> near_list;
+
   size_t material_count() const { return labels.size(); }
+  // The materials near a continuous voxel-index position (near_list; clamped to the grid).
+  std::span<const uint16_t> materials_near(const glm::dvec3& ijk) const;
   // Index (into labels) of argmax_m f_m at a continuous voxel-index position (trilinear samples).
   int material_at(const glm::dvec3& ijk) const;
   size_t memory_bytes() const;
 };
+
+// Fills near_begin and near_list from the fields (build_indicator_fields does, last).
+void index_materials_near(IndicatorFields& fields);
 
 // labels: grid.voxel_count() values, x fastest. Every label value present becomes a material (the background too).
 IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels, const IndicatorOptions& options = {});

@@ -406,6 +406,8 @@ const std::vector<CorpusEntry>& corpus() {
         entry("organs-64", SynthShape::organs, 64, false, 0, 0.01, ct),
         entry("noisy-48", SynthShape::parcellation, 48, false, 12, 0.04, {0.6, 0.6, 1.3}),
         entry("parcellation-300", SynthShape::parcellation, 72, false, 300),
+        // 304 parcels asked, 300 left in the mask at 32^3 (27 of them under 8 voxels): the CI's many-label volume.
+        entry("parcellation-300-32", SynthShape::parcellation, 32, false, 304),
         entry("parcellation-50", SynthShape::parcellation, 100, true, 50, 0.01),
         entry("thin-128", SynthShape::thin, 128, true),
         entry("islands-128", SynthShape::islands, 128, true),

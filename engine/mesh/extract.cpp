@@ -87,18 +87,19 @@ uint16_t material_across(const Adjacency& adj, const std::vector<uint16_t>& hull
   return adj.neighbour[tc] == Adjacency::kHull ? hull[tc] : material[adj.neighbour[tc] / 4];
 }
 
-bool face_is_wrong(const Tets& T, uint32_t tc, uint16_t m, uint16_t o, const std::vector<uint64_t>& vertex_materials) {
+bool face_is_wrong(const Tets& T, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialSet>& vertex_materials) {
   if (m == o) return false;
-  const uint64_t need = (uint64_t(1) << (m & 63)) | (uint64_t(1) << (o & 63));
   const auto& v = T.tets[tc / 4];
   const int c = int(tc % 4);
-  for (int k = 0; k < 3; ++k)
-    if ((vertex_materials[v[size_t(kFace[c][k])]] & need) != need) return true;
+  for (int k = 0; k < 3; ++k) {
+    const fields::MaterialSet& s = vertex_materials[v[size_t(kFace[c][k])]];
+    if (!s.has(m) || !s.has(o)) return true;
+  }
   return false;
 }
 
 size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes) {
+                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material, int passes) {
   auto other = [&](uint32_t tc) { return material_across(adj, hull, material, tc); };
   auto cost = [&](uint32_t t, uint16_t m) {
     int n = 0;
@@ -139,11 +140,10 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
       int best = now;
       uint16_t best_m = material[t];
       // Candidates: the neighbours' materials and every material a vertex of the tet lies on.
-      uint64_t candidates = 0;
-      for (uint32_t c = 0; c < 4; ++c) candidates |= uint64_t(1) << (other(t * 4 + c) & 63);
-      for (uint32_t v : T.tets[t]) candidates |= vertex_materials[v];
-      for (uint16_t m = 0; m < 64; ++m) {
-        if (!(candidates >> m & 1) || m == material[t]) continue;
+      const std::array<fields::MaterialSet, 4> around = {vertex_materials[T.tets[t][0]], vertex_materials[T.tets[t][1]],
+                                                         vertex_materials[T.tets[t][2]], vertex_materials[T.tets[t][3]]};
+      for (uint16_t m : fields::union_of(around, {other(t * 4), other(t * 4 + 1), other(t * 4 + 2), other(t * 4 + 3)})) {
+        if (m == material[t]) continue;
         const int k = cost(t, m);
         if (k < best) {
           best = k;
@@ -166,7 +166,7 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 }
 
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                                  const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material) {
+                                  const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint16_t>& material) {
   // Chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
   return collect_in_order_by_index<uint32_t>(adj.neighbour.size(), size_t(1) << 16, [&](size_t i, auto& out) {
     const uint32_t tc = uint32_t(i), nb = adj.neighbour[tc];

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "fields/indicator_fields.h"
+#include "fields/material_set.h"
 #include "mesh/adjacency.h"
 #include "mesh/tetgen.h"
 
@@ -47,15 +48,15 @@ std::vector<uint16_t> hull_materials(const fields::IndicatorFields& fields, cons
 // The material across face tc (tet * 4 + corner): the neighbour tet's, or the hull material outside.
 uint16_t material_across(const Adjacency& adj, const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
                          uint32_t tc);
-// vertex_materials[v]: bit m set when particle v lies on a feature bounding material m (Feature::material_mask).
+// vertex_materials[v]: the materials of the feature particle v lies on (Feature::material_set).
 // Face tc between materials m and o is wrong when m != o and one of its vertices lacks m or o.
-bool face_is_wrong(const Tets& tets, uint32_t tc, uint16_t m, uint16_t o, const std::vector<uint64_t>& vertex_materials);
+bool face_is_wrong(const Tets& tets, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialSet>& vertex_materials);
 // Returns the number of tets relabelled.
 size_t repair_labels(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes = 50);
+                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material, int passes = 50);
 // The wrong faces (as tet * 4 + corner, each shared face once).
 std::vector<uint32_t> wrong_faces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                                  const std::vector<uint64_t>& vertex_materials, const std::vector<uint16_t>& material);
+                                  const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint16_t>& material);
 
 InterfaceMesh extract_interfaces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                  const std::vector<uint16_t>& material, const std::vector<uint8_t>& vertex_kind);

@@ -62,7 +62,7 @@ void check_label_limit(const io::LabelVolume& v) {
   if (!seen[0]) ++count;  // the outside is label 0
   if (count > kMaxMaterials)
     throw std::invalid_argument(v.source + ": " + std::to_string(count) + " materials (the labels and the outside, label 0); "
-                                "the particle system supports at most " + std::to_string(kMaxMaterials) +
+                                "cpmesh supports at most " + std::to_string(kMaxMaterials) +
                                 " (merge or drop labels with --materials)");
 }
 
@@ -174,7 +174,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   std::vector<glm::dvec3> points;
   std::vector<uint8_t> kind;
-  std::vector<uint64_t> vertex_materials;
+  std::vector<fields::MaterialSet> vertex_materials;
   std::vector<float> vertex_h;
   std::vector<uint32_t> vertex_feature;
   auto set_vertex = [&](size_t v, const glm::dvec3& p, uint32_t f, float h) {
@@ -182,7 +182,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     points[v] = p;
     vertex_feature[v] = f;
     kind[v] = uint8_t(feat.kind);
-    vertex_materials[v] = feat.material_mask();
+    vertex_materials[v] = feat.material_set();
     vertex_h[v] = h;
   };
   auto add_vertex = [&](const glm::dvec3& p, uint32_t f, float h) {
@@ -227,7 +227,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     std::vector<uint16_t> material, hull;
     std::vector<glm::dvec3> points;
     std::vector<uint8_t> kind;
-    std::vector<uint64_t> vertex_materials;
+    std::vector<fields::MaterialSet> vertex_materials;
     std::vector<float> vertex_h;
     std::vector<uint32_t> vertex_feature;
     MeshReport report;

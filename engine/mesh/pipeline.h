@@ -61,8 +61,8 @@ struct MeshOptions {
   size_t max_particles = 5'000'000;
 };
 
-// Materials (labels and the outside) the particle system takes: features carry their materials as 64-bit masks.
-constexpr size_t kMaxMaterials = 64;
+// Materials (labels and the outside) a volume may have: material indices are 16-bit, below MaterialSet::kNone.
+constexpr size_t kMaxMaterials = fields::MaterialSet::kNone;
 // Throws std::invalid_argument naming the volume's source when it has more materials than that.
 void check_label_limit(const io::LabelVolume& volume);
 

@@ -45,18 +45,13 @@ class PointHash {
   std::unordered_map<uint64_t, std::vector<std::pair<glm::dvec3, int64_t>>> cells_;
 };
 
-std::vector<uint16_t> materials_of(uint64_t mask) {
-  std::vector<uint16_t> out;
-  for (; mask; mask &= mask - 1) out.push_back(uint16_t(std::countr_zero(mask)));
-  return out;
-}
-
 // The features a site may take a sample on: the interface of m and o, and the triple curves and quadruple points of
 // m, o and the materials its vertices lie on.
 std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E, const RefineSite& s) {
   using fields::FeatureKind;
-  const uint64_t pair = (uint64_t(1) << s.m) | (uint64_t(1) << s.o);
-  const std::vector<uint16_t> others = materials_of(s.vertex_materials & ~pair);
+  std::vector<uint16_t> others;
+  for (uint16_t m : s.vertex_materials)
+    if (m != s.m && m != s.o) others.push_back(m);
   std::vector<uint32_t> out;
   auto add = [&](FeatureKind kind, std::vector<uint16_t> mats) {
     std::sort(mats.begin(), mats.end());
@@ -73,14 +68,15 @@ std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E,
   return out;
 }
 
-// The closest point to p of the feature of exactly `materials` (a triple curve or quadruple point), when it exists
+// The closest point to p of the feature of exactly `materials` (ascending: a triple curve or quadruple point), when
+// it exists
 // and lies within h of p.
-std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p, uint64_t materials) {
-  const int n = std::popcount(materials);
+std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p,
+                                          const std::vector<uint16_t>& materials) {
+  const int n = int(materials.size());
   if (n < 3 || n > 4) return std::nullopt;
   std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-  const auto mats = materials_of(materials);
-  std::copy(mats.begin(), mats.end(), key.begin());
+  std::copy(materials.begin(), materials.end(), key.begin());
   const int f = E.feature_index(n == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
   if (f < 0) return std::nullopt;
   const auto cp = ref::cp_lookup(E, glm::vec3(p), uint32_t(f));
@@ -123,7 +119,7 @@ std::optional<glm::dvec3> material_change(const fields::IndicatorFields& F, glm:
 
 std::vector<RefineSite> face_sites(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj,
                                    const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
-                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint32_t>& faces) {
+                                   const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint32_t>& faces) {
   std::vector<RefineSite> out(faces.size());
   tbb::parallel_for(size_t(0), faces.size(), [&](size_t i) {
     const uint32_t tc = faces[i];
@@ -131,9 +127,9 @@ std::vector<RefineSite> face_sites(const fields::IndicatorFields& F, const Tets&
     const uint32_t nb = adj.neighbour[tc];
     const glm::dvec3 a = label_point(T, tc / 4), b = nb == Adjacency::kHull ? hull_sample_point(F, T, tc) : label_point(T, nb / 4);
     RefineSite s{(T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0, material[tc / 4],
-                 material_across(adj, hull, material, tc), 0, f};
+                 material_across(adj, hull, material, tc), {}, f};
     if (const auto c = material_change(F, a, b)) s.at = *c;
-    for (uint32_t v : f) s.vertex_materials |= vertex_materials[v];
+    s.vertex_materials = fields::union_of(std::array{vertex_materials[f[0]], vertex_materials[f[1]], vertex_materials[f[2]]});
     out[i] = s;
   });
   return out;
@@ -179,7 +175,7 @@ std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
 }
 
 Refinement refinement_points(const fields::ClosestPointEmbedding& E, const std::vector<RefineSite>& sites,
-                             const std::vector<glm::dvec3>& points, const std::vector<uint64_t>& vertex_materials,
+                             const std::vector<glm::dvec3>& points, const std::vector<fields::MaterialSet>& vertex_materials,
                              const std::vector<uint8_t>& fixed, double protection) {
   std::vector<RefinePoint> chosen;
   for (const RefineSite& s : sites) {
@@ -220,16 +216,18 @@ Refinement refinement_points(const fields::ClosestPointEmbedding& E, const std::
     const RefinePoint& c = chosen[i];
     if (!(c.h > 0)) continue;
     const int64_t v = near.nearest_within(c.position, kCrowding * c.h);
-    const uint64_t pair = (uint64_t(1) << sites[i].m) | (uint64_t(1) << sites[i].o);
+    const uint16_t m = sites[i].m, o = sites[i].o;
+    auto lacks_pair = [&](size_t w) { return !vertex_materials[w].has(m) || !vertex_materials[w].has(o); };
     if (v == -1) {
       out.added.push_back(c);
       near.add(c.position, -2);
-    } else if (v >= 0 && !moved[size_t(v)] && (vertex_materials[size_t(v)] & pair) != pair) {
+    } else if (v >= 0 && !moved[size_t(v)] && lacks_pair(size_t(v))) {
       move(uint32_t(v), c);
     } else if (v >= 0) {
       for (uint32_t w : sites[i].vertices)
-        if (!moved[w] && (vertex_materials[w] & pair) != pair)
-          if (const auto to = junction_point(E, points[w], vertex_materials[w] | pair)) move(w, *to);
+        if (!moved[w] && lacks_pair(w))
+          if (const auto to = junction_point(E, points[w], fields::union_of(std::span(&vertex_materials[w], 1), {m, o})))
+            move(w, *to);
     }
   }
   return out;

@@ -31,11 +31,11 @@ struct RefinePoint {
 constexpr double kCrowding = 0.3;
 
 // A place that needs a sample: where it is (local coordinates), the two materials (indices) of the face or edge,
-// and the materials its vertices lie on (bit m for material index m, as Feature::material_mask).
+// and the materials its vertices lie on (the union of their features' material sets, ascending).
 struct RefineSite {
   glm::dvec3 at;
   uint16_t m, o;
-  uint64_t vertex_materials;
+  std::vector<uint16_t> vertex_materials;
   std::array<uint32_t, 3> vertices;  // the face's
 };
 
@@ -45,7 +45,7 @@ struct RefineSite {
 // (the face centroid where the edge shows no change of material).
 std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const Tets& tets, const Adjacency& adj,
                                    const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
-                                   const std::vector<uint64_t>& vertex_materials, const std::vector<uint32_t>& faces);
+                                   const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint32_t>& faces);
 
 // The tet faces of the interface triangles around edges where an interface is not an edge-manifold bounded by
 // triple curves: edges in more than two triangles of one interface, and edges in one triangle of an interface that
@@ -64,7 +64,7 @@ struct Refinement {
   std::vector<std::pair<uint32_t, RefinePoint>> moved;  // point index, where it goes and its new feature
 };
 Refinement refinement_points(const fields::ClosestPointEmbedding& embedding, const std::vector<RefineSite>& sites,
-                             const std::vector<glm::dvec3>& points, const std::vector<uint64_t>& vertex_materials,
+                             const std::vector<glm::dvec3>& points, const std::vector<fields::MaterialSet>& vertex_materials,
                              const std::vector<uint8_t>& fixed, double protection);
 
 }  // namespace cpmesh::mesh

@@ -91,9 +91,9 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
   for (const auto& e : triple_curve_edges(T, mesh.pair)) {
     const auto& fa = E.features[vertex_feature[e.a]];
     const auto& fb = E.features[vertex_feature[e.b]];
-    const uint64_t ma = fa.material_mask(), mb = fb.material_mask();
-    if (fa.kind == fields::FeatureKind::triple_curve && (mb & ma) == ma) along[e.a].push_back(e.b);
-    if (fb.kind == fields::FeatureKind::triple_curve && (ma & mb) == mb) along[e.b].push_back(e.a);
+    const fields::MaterialSet ma = fa.material_set(), mb = fb.material_set();
+    if (fa.kind == fields::FeatureKind::triple_curve && mb.includes(ma)) along[e.a].push_back(e.b);
+    if (fb.kind == fields::FeatureKind::triple_curve && ma.includes(mb)) along[e.b].push_back(e.a);
   }
   auto worst_around = [&](uint32_t v) {
     double worst = 1;

@@ -42,18 +42,20 @@ void OctreeBuild::record(gpu::Sequence& seq, const gpu::Buffer<uint64_t>& keys, 
 }
 
 std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
-                                       const std::vector<uint64_t>& feature_masks) {
+                                       const std::vector<fields::MaterialSet>& feature_masks) {
   std::vector<glm::uvec4> masks(features.size());
   for (size_t i = 0; i < features.size(); ++i) {
     if (features[i] >= feature_masks.size())
       throw std::invalid_argument("particle masks: a feature index out of range");
-    const uint64_t m = feature_masks[features[i]];
-    masks[i] = glm::uvec4(uint32_t(m), uint32_t(m >> 32), 0u, 0u);
+    const fields::MaterialSet& s = feature_masks[features[i]];
+    const uint64_t m = s.mask64(), p = s.packed();
+    masks[i] = glm::uvec4(uint32_t(m), uint32_t(m >> 32), uint32_t(p), uint32_t(p >> 32));
   }
   return masks;
 }
 
-OctreeMoments::OctreeMoments(gpu::Context& ctx) : kernel_(ctx, shaders::octree_moments) {}
+OctreeMoments::OctreeMoments(gpu::Context& ctx, bool exact_sets)
+    : kernel_(ctx, shaders::octree_moments, {uint32_t(exact_sets)}) {}
 
 void OctreeMoments::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes,
                            const gpu::Buffer<glm::uvec2>& level_info, const gpu::Buffer<uint32_t>& order,

@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "fields/material_set.h"
 #include "primitives/compact.h"
 
 namespace cpmesh::octree {
@@ -42,17 +43,19 @@ struct NodeMoments {
   gpu::Buffer<glm::vec4> lo, hi, com, and_mask;
 };
 
-// Per particle, its feature's material set (feature_masks[features[i]], a 64-bit mask) as x (low word) and y (high
-// word), z and w 0: what the moments and the walks (tree_walk.h) read of a particle's feature, one texel each.
+// Per particle, its feature's material set (feature_masks[features[i]]): its mask64 in x (low word) and y, its slots
+// in z (0, 1) and w (2, 3): what the moments and the walks (tree_walk.h) read of a particle's feature, one texel each.
 // Throws for a feature index outside feature_masks.
 std::vector<glm::uvec4> particle_masks(const std::vector<uint32_t>& features,
-                                       const std::vector<uint64_t>& feature_masks);
+                                       const std::vector<fields::MaterialSet>& feature_masks);
 
 // Node moments for the tree walk (issue 6): box, smallest sizing h, centre of mass and count per node, bottom-up
 // one level per dispatch (shaders/octree_moments.comp; reference ref::octree_moments).
 class OctreeMoments {
  public:
-  explicit OctreeMoments(gpu::Context& ctx);
+  // exact_sets (fields::needs_exact_sets of the particles' sets): the intersections of the slots too, not only of
+  // the masks.
+  explicit OctreeMoments(gpu::Context& ctx, bool exact_sets = false);
   // order: Morton order -> particle index (MortonSort's indices); particles: xyz position, w sizing h;
   // masks: each particle's feature's material set (particle_masks).
   void record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const gpu::Buffer<glm::uvec2>& level_info,

@@ -14,8 +14,10 @@ struct WalkPush {
 };
 }  // namespace
 
-TreeWalk::TreeWalk(gpu::Context& ctx)
-    : exact_(ctx, shaders::tree_walk), barnes_hut_(ctx, shaders::tree_walk_bh), lists_(ctx, shaders::tree_walk_lists) {}
+TreeWalk::TreeWalk(gpu::Context& ctx, bool exact_sets)
+    : exact_(ctx, shaders::tree_walk, {uint32_t(exact_sets)}),
+      barnes_hut_(ctx, shaders::tree_walk_bh, {uint32_t(exact_sets)}),
+      lists_(ctx, shaders::tree_walk_lists, {uint32_t(exact_sets)}) {}
 
 void TreeWalk::record(gpu::Sequence& seq, const gpu::Buffer<glm::uvec4>& nodes, const NodeMoments& moments,
                       const gpu::Buffer<uint32_t>& order, const gpu::Buffer<glm::vec4>& particles,

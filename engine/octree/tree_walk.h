@@ -9,7 +9,9 @@ namespace cpmesh::octree {
 
 class TreeWalk {
  public:
-  explicit TreeWalk(gpu::Context& ctx);
+  // exact_sets (fields::needs_exact_sets of the particles' sets): the interaction rule compares the material slots
+  // after the masks; it must match the OctreeMoments that made the moments.
+  explicit TreeWalk(gpu::Context& ctx, bool exact_sets = false);
   // result[i] = (dE_i/dp_i, E_i); counts[i] = pairs evaluated, bit 31 set if the per-particle work budget ran out;
   // visits[i] = octree nodes visited.
   // masks: per particle, its feature's set of materials (particle_masks).

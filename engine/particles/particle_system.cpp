@@ -13,12 +13,6 @@ namespace cpmesh::particles {
 
 namespace {
 
-std::vector<uint64_t> feature_masks(const fields::ClosestPointEmbedding& E) {
-  std::vector<uint64_t> masks;
-  for (const auto& f : E.features) masks.push_back(f.material_mask());
-  return masks;
-}
-
 std::vector<uint32_t> identity(size_t n) {
   std::vector<uint32_t> v(n);
   std::iota(v.begin(), v.end(), 0u);
@@ -50,8 +44,8 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       box_(octree::MortonBox::around(glm::vec3(0.0f), glm::vec3(glm::dvec3(E.grid.dims) * E.grid.spacing))),
       sort_(ctx),
       build_(ctx),
-      moments_(ctx),
-      walk_(ctx),
+      moments_(ctx, fields::needs_exact_sets(fields::material_sets(E.features))),
+      walk_(ctx, fields::needs_exact_sets(fields::material_sets(E.features))),
       permute_(ctx),
       reduce_(ctx),
       advect_(ctx, shaders::advect, embedding_->spec_constants()),
@@ -73,7 +67,7 @@ ParticleSystem::ParticleSystem(gpu::Context& ctx, const fields::ClosestPointEmbe
       lost_(ctx, 1, "lost particles", gpu::MemoryUse::readback),
       flags_(ctx, n_, "population flags"),
       keys_(ctx, n_, "morton keys"),
-      masks_(ctx, octree::particle_masks(features, feature_masks(E)), "particle masks"),
+      masks_(ctx, octree::particle_masks(features, fields::material_sets(E.features)), "particle masks"),
       masks_spare_(ctx, n_, "particle masks (permuted)"),
       nodes_(ctx, octree::OctreeBuild::node_capacity(n_, options.leaf_size), "octree nodes"),
       level_info_(ctx, 22, "octree levels"),

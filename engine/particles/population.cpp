@@ -77,7 +77,7 @@ std::vector<float> feature_ideals(const fields::ClosestPointEmbedding& E) {
 // ---------------------------------------------------------------------------------------------------------------
 
 HostIndex::HostIndex(const fields::ClosestPointEmbedding& E, double cell) : cell_(cell) {
-  for (const auto& f : E.features) masks_.push_back(f.material_mask());
+  masks_ = fields::material_sets(E.features);
 }
 
 glm::ivec3 HostIndex::cell_of(const glm::vec3& p) const { return glm::ivec3(glm::floor(glm::dvec3(p) / cell_)); }
@@ -152,11 +152,11 @@ void HostIndex::remove(uint32_t id) {
 }
 
 double HostIndex::energy(const glm::vec3& p, float h, uint32_t feature, uint32_t skip) const {
-  const uint64_t mask = masks_[feature];
+  const fields::MaterialSet mask = masks_[feature];
   // Pairs interact within sqrt(3) min(h, h_j) <= sqrt(3) h.
   double e = 0;
   for_each_near(p, kSupport * std::min(h, h_max_), [&](uint32_t j, const Entry& q) {
-    if (j == skip || (masks_[q.feature] & mask) != mask) return;
+    if (j == skip || !masks_[q.feature].includes(mask)) return;
     const float r = glm::length(p - glm::vec3(q.particle));
     e += pair_energy(r / (kSupport * std::min(h, q.particle.w)));
   });
@@ -642,12 +642,12 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
   std::vector<std::vector<glm::dvec3>> points_of(E.features.size());
   for (uint32_t f = 0; f < E.features.size(); ++f) {
     if (E.features[f].kind != fields::FeatureKind::interface) continue;
-    const uint64_t mine = E.features[f].material_mask();
+    const fields::MaterialSet mine = E.features[f].material_set();
     for (uint32_t c = 0; c < E.features.size(); ++c)
-      if (E.features[c].kind == fields::FeatureKind::triple_curve && (E.features[c].material_mask() & mine) == mine)
+      if (E.features[c].kind == fields::FeatureKind::triple_curve && E.features[c].material_set().includes(mine))
         curves_of[f].push_back(c);
     for (const auto& q : E.quadruple_points)
-      if ((E.features[q.feature].material_mask() & mine) == mine) points_of[f].push_back(q.position);
+      if (E.features[q.feature].material_set().includes(mine)) points_of[f].push_back(q.position);
   }
   // Curve particles in a host index of cells as large as the largest h among them: a point within rho h of a curve
   // lies within about h of one of its particles (they are spaced about h apart).

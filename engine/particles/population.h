@@ -121,7 +121,7 @@ class HostIndex {
   double energy(const glm::vec3& p, float h, uint32_t feature, uint32_t skip = ~0u) const;
   // The live particle of exactly `feature` nearest to p within `radius` (its position), or nothing.
   std::optional<glm::vec3> nearest(const glm::vec3& p, uint32_t feature, float radius) const;
-  const std::vector<uint64_t>& masks() const { return masks_; }
+  const std::vector<fields::MaterialSet>& masks() const { return masks_; }
   size_t size() const { return live_; }
   // Empties the index, keeping its memory (a scratch index reused tile after tile).
   void clear();
@@ -147,7 +147,7 @@ class HostIndex {
   double cell_;
   float h_max_ = 0;
   size_t live_ = 0;
-  std::vector<uint64_t> masks_;
+  std::vector<fields::MaterialSet> masks_;
   struct Entry {
     glm::vec4 particle;
     uint32_t feature;

@@ -8,7 +8,7 @@ namespace cpmesh::ref {
 
 std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_t>& order,
                                       const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
-                                      const std::vector<uint64_t>& masks) {
+                                      const std::vector<fields::MaterialSet>& masks, bool exact_sets) {
   std::vector<glm::vec4> m(4 * t.nodes.size());
   for (int level = 21; level >= 0; --level) {
     const glm::uvec2 info = t.level_info[size_t(level)];
@@ -17,11 +17,14 @@ std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_
       const uint32_t children = node.w & 0xffu;
       glm::vec3 lo(3.4e38f), hi(-3.4e38f), sum(0.0f);
       float min_h = 3.4e38f, total = 0.0f;
-      uint64_t and_mask = ~uint64_t(0);
+      fields::MaterialSet and_mask;
+      uint64_t and_bits = ~uint64_t(0);
       if (children == 0) {
         const uint32_t count = std::min<uint32_t>(node.y, 4096);
         for (uint32_t k = 0; k < count; ++k) {
-          and_mask &= masks[features[order[node.x + k]]];
+          const fields::MaterialSet mine = masks[features[order[node.x + k]]];
+          and_mask = k == 0 ? mine : and_mask.common(mine);
+          and_bits &= mine.mask64();
           const glm::vec4 p = particles[order[node.x + k]];
           lo = glm::min(lo, glm::vec3(p));
           hi = glm::max(hi, glm::vec3(p));
@@ -38,17 +41,19 @@ std::vector<glm::vec4> octree_moments(const Octree& t, const std::vector<uint32_
           min_h = std::min(min_h, m[4 * child].w);
           sum += glm::vec3(m[4 * child + 2]) * m[4 * child + 2].w;
           total += m[4 * child + 2].w;
-          const uint64_t child_mask = uint64_t(glm::floatBitsToUint(m[4 * child + 3].x)) |
-                                      (uint64_t(glm::floatBitsToUint(m[4 * child + 3].y)) << 32);
-          and_mask &= child_mask;
+          const glm::uvec4 words = glm::floatBitsToUint(m[4 * child + 3]);
+          and_bits &= uint64_t(words.x) | uint64_t(words.y) << 32;
+          const auto child_set = fields::MaterialSet::from_packed(uint64_t(words.z) | uint64_t(words.w) << 32);
+          and_mask = c == 0 ? child_set : and_mask.common(child_set);
         }
         if (total > 0.0f) sum /= total;
       }
       m[4 * size_t(id)] = glm::vec4(lo, min_h);
       m[4 * size_t(id) + 1] = glm::vec4(hi, 0.0f);
       m[4 * size_t(id) + 2] = glm::vec4(sum, total);
-      m[4 * size_t(id) + 3] = glm::vec4(glm::uintBitsToFloat(uint32_t(and_mask)), glm::uintBitsToFloat(uint32_t(and_mask >> 32)),
-                                        0.0f, 0.0f);
+      const uint64_t set = exact_sets ? and_mask.packed() : 0;
+      m[4 * size_t(id) + 3] = glm::uintBitsToFloat(
+          glm::uvec4(uint32_t(and_bits), uint32_t(and_bits >> 32), uint32_t(set), uint32_t(set >> 32)));
     }
   }
   return m;

@@ -6,16 +6,16 @@
 namespace cpmesh::ref {
 
 std::vector<glm::vec4> particle_energy(const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
-                                       const std::vector<uint64_t>& masks) {
+                                       const std::vector<fields::MaterialSet>& masks) {
   const float pi = 3.14159265358979f, support = 1.7320508075688772f;
   std::vector<glm::vec4> out(particles.size());
   for (size_t i = 0; i < particles.size(); ++i) {
     const glm::vec3 p(particles[i]);
-    const uint64_t mask = masks[features[i]];
+    const fields::MaterialSet mask = masks[features[i]];
     float energy = 0.0f;
     glm::vec3 grad(0.0f);
     for (size_t j = 0; j < particles.size(); ++j) {
-      if (j == i || (masks[features[j]] & mask) != mask) continue;
+      if (j == i || !masks[features[j]].includes(mask)) continue;
       const glm::vec3 delta = p - glm::vec3(particles[j]);
       const float r = glm::length(delta);
       const float scale = support * std::min(particles[i].w, particles[j].w);
@@ -33,14 +33,14 @@ std::vector<glm::vec4> particle_energy(const std::vector<glm::vec4>& particles, 
 
 std::vector<std::vector<uint32_t>> neighbour_lists(const std::vector<glm::vec4>& particles,
                                                    const std::vector<uint32_t>& features,
-                                                   const std::vector<uint64_t>& masks, float skin) {
+                                                   const std::vector<fields::MaterialSet>& masks, float skin) {
   const float support = 1.7320508075688772f;
   std::vector<std::vector<uint32_t>> out(particles.size());
   for (size_t i = 0; i < particles.size(); ++i) {
     const glm::vec3 p(particles[i]);
-    const uint64_t mask = masks[features[i]];
+    const fields::MaterialSet mask = masks[features[i]];
     for (size_t j = 0; j < particles.size(); ++j) {
-      if (j == i || (masks[features[j]] & mask) != mask) continue;
+      if (j == i || !masks[features[j]].includes(mask)) continue;
       const float cutoff = support * std::min(particles[i].w, particles[j].w) * (1.0f + skin);
       if (glm::length(p - glm::vec3(particles[j])) < cutoff) out[i].push_back(uint32_t(j));
     }

@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <random>
+#include <set>
 
 #include <tbb/global_control.h>
 
@@ -16,7 +17,8 @@ namespace {
 
 // repair_labels as one loop over every tet per pass (its definition).
 size_t serial_repair(const mesh::Tets& T, const mesh::Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<uint64_t>& vertex_materials, std::vector<uint16_t>& material, int passes) {
+                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material,
+                     int passes) {
   auto other = [&](uint32_t tc) { return mesh::material_across(adj, hull, material, tc); };
   auto cost = [&](uint32_t t, uint16_t m) {
     int n = 0;
@@ -31,11 +33,12 @@ size_t serial_repair(const mesh::Tets& T, const mesh::Adjacency& adj, const std:
       if (now == 0) continue;
       int best = now;
       uint16_t best_m = material[t];
-      uint64_t candidates = 0;
-      for (uint32_t c = 0; c < 4; ++c) candidates |= uint64_t(1) << (other(t * 4 + c) & 63);
-      for (uint32_t v : T.tets[t]) candidates |= vertex_materials[v];
-      for (uint16_t m = 0; m < 64; ++m) {
-        if (!(candidates >> m & 1) || m == material[t]) continue;
+      std::set<uint16_t> candidates;
+      for (uint32_t c = 0; c < 4; ++c) candidates.insert(other(t * 4 + c));
+      for (uint32_t v : T.tets[t])
+        for (uint16_t m : vertex_materials[v].members()) candidates.insert(m);
+      for (uint16_t m : candidates) {
+        if (m == material[t]) continue;
         const int k = cost(t, m);
         if (k < best) best = k, best_m = m;
       }
@@ -52,7 +55,8 @@ size_t serial_repair(const mesh::Tets& T, const mesh::Adjacency& adj, const std:
 TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial loops over every tet and face") {
   // Random points in a ball; materials by regions, half the tets relabelled at random, vertices on their region and
   // up to two random materials: many wrong faces, relabels that make a later neighbour's faces wrong (without the
-  // visits of those neighbours the 2- and 50-pass results differ from the serial ones), several passes.
+  // visits of those neighbours the 2- and 50-pass results differ from the serial ones), several passes. Material
+  // indices run to 603: any number of materials.
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::vector<glm::dvec3> points;
@@ -60,13 +64,14 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
     const glm::dvec3 p(u(rng), u(rng), u(rng));
     if (glm::length(p) < 1) points.push_back(p);
   }
-  const auto region = [](const glm::dvec3& p) { return uint16_t((p.x > 0.1) + 2 * (p.y > -0.2) + (p.z > 0.3)); };
-  std::vector<uint64_t> vertex_materials(points.size());
+  const auto index = [](uint32_t k) { return uint16_t(k * 150 + 3); };
+  const auto region = [&](const glm::dvec3& p) { return index((p.x > 0.1) + 2 * (p.y > -0.2) + (p.z > 0.3)); };
+  std::vector<fields::MaterialSet> vertex_materials(points.size());
   for (size_t v = 0; v < points.size(); ++v) {
-    uint64_t m = uint64_t(1) << region(points[v]);
+    std::vector<uint16_t> m = {region(points[v])};
     for (int k = 0; k < 2; ++k)
-      if (rng() % 2 == 0) m |= uint64_t(1) << (rng() % 3);
-    vertex_materials[v] = m;
+      if (rng() % 2 == 0) m.push_back(index(rng() % 3));
+    vertex_materials[v] = fields::MaterialSet(m);
   }
   mesh::DelaunayMesh dm(points);
   mesh::Adjacency adj;
@@ -75,11 +80,11 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
   for (size_t t = 0; t < T.tets.size(); ++t) {
     glm::dvec3 c(0.0);
     for (uint32_t v : T.tets[t]) c += T.points[v];
-    material[t] = rng() % 2 == 0 ? uint16_t(rng() % 3) : region(c / 4.0);
+    material[t] = rng() % 2 == 0 ? index(rng() % 3) : region(c / 4.0);
   }
   std::vector<uint16_t> hull(adj.neighbour.size(), 0);
   for (size_t tc = 0; tc < hull.size(); ++tc)
-    if (adj.neighbour[tc] == mesh::Adjacency::kHull) hull[tc] = uint16_t(rng() % 3);
+    if (adj.neighbour[tc] == mesh::Adjacency::kHull) hull[tc] = index(rng() % 3);
 
   // wrong_faces: every face once (the lower side of a shared face), ascending.
   std::vector<uint32_t> expected_wrong;

@@ -113,7 +113,10 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree matches the reference") {
 TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and moments match the references") {
   octree::MortonSort sorter(ctx);
   octree::OctreeBuild build(ctx);
-  octree::OctreeMoments moments(ctx);
+  bool exact_sets = true;
+  SUBCASE("material slots intersected") {}
+  SUBCASE("masks only") { exact_sets = false; }
+  const octree::OctreeMoments moments(ctx, exact_sets);
   for (uint32_t n : {1u, 300u, 50000u}) {
     CAPTURE(n);
     std::mt19937 rng(n * 7);
@@ -129,9 +132,17 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     gpu::Buffer<glm::uvec4> nodes(ctx, capacity, "nodes");
     gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
     octree::NodeMoments m(ctx, capacity);
+    // Material sets that share only 700, then random ones with 700 and ids whose halves differ in one byte or bit.
+    std::vector<fields::MaterialSet> masks = {{5, 700}, {5, 700, 9000}, {700, 9000}};
+    const uint16_t pool[] = {0, 1, 5, 0x100, 0x101, 0x7fff, 0x8000, 0x8001, 0xfffe, 9000};
+    while (masks.size() < 12) {
+      std::vector<uint16_t> m = {700};
+      for (uint32_t k = 1 + rng() % 3; k > 0; --k) m.push_back(pool[rng() % std::size(pool)]);
+      std::shuffle(m.begin(), m.end(), rng);
+      masks.emplace_back(m);
+    }
     std::vector<uint32_t> features(n);
-    for (uint32_t i = 0; i < n; ++i) features[i] = i % 3;
-    const std::vector<uint64_t> masks = {0b011, 0b111, 0b110};
+    for (uint32_t i = 0; i < n; ++i) features[i] = i < 3 ? i : uint32_t(rng() % masks.size());
     gpu::Buffer<glm::uvec4> pm(ctx, octree::particle_masks(features, masks), "particle masks");
     gpu::Sequence seq(ctx);
     sorter.record(seq, pb, box, keys, order, n);
@@ -141,7 +152,7 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
 
     const auto tree = ref::build_octree(keys.download(), leaf);
     const auto got_order = order.download();
-    const auto want = ref::octree_moments(tree, got_order, particles, features, masks);
+    const auto want = ref::octree_moments(tree, got_order, particles, features, masks, exact_sets);
     std::vector<glm::vec4> got(want.size());  // interleaved like the reference: lo, hi, com, mask per node
     {
       const size_t nodes_used = want.size() / 4;
@@ -156,7 +167,13 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     }
     REQUIRE(info.download() == tree.level_info);
     float worst = 0;
-    for (size_t i = 0; i < want.size(); ++i) worst = std::max(worst, glm::length(got[i] - want[i]));
+    for (size_t i = 0; i < want.size(); ++i) {
+      if (i % 4 == 3) {  // the material masks and sets, exactly
+        CHECK(glm::floatBitsToUint(got[i]) == glm::floatBitsToUint(want[i]));
+        continue;
+      }
+      worst = std::max(worst, glm::length(got[i] - want[i]));
+    }
     CHECK(worst <= 1e-4f * 50.0f);
     // The root holds every particle: its box and count are those of the input.
     glm::vec3 lo(1e30f), hi(-1e30f);
@@ -169,7 +186,16 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU octree of particles: Morton sort, build and m
     CHECK(got[0] == glm::vec4(lo, min_h));
     CHECK(glm::vec3(got[1]) == hi);
     CHECK(got[2].w == float(n));
-    // The AND of the masks: the root's is what all three features share (material 1), a leaf of one feature its own.
-    CHECK(glm::floatBitsToUint(got[3].x) == (n >= 3 ? 0b010u : uint32_t(masks[0])));
+    // The intersection of the sets: the root's is what all three features share (material 700), a leaf of one
+    // feature its own.
+    const glm::uvec4 root = glm::floatBitsToUint(got[3]);
+    const uint64_t root_mask = uint64_t(root.x) | uint64_t(root.y) << 32;
+    CHECK((root_mask >> (700 % 64) & 1) == 1);
+    if (exact_sets) {
+      const auto set = fields::MaterialSet::from_packed(uint64_t(root.z) | uint64_t(root.w) << 32);
+      CHECK(set.members() == (n >= 3 ? std::vector<uint16_t>{700} : masks[0].members()));
+    } else {
+      CHECK(root.z == 0u);
+    }
   }
 }

@@ -60,7 +60,7 @@ TEST_CASE_FIXTURE(GpuFixture, "one GPU iteration matches the reference iteration
   const auto got = system.particles();
 
   auto want = start;
-  const std::vector<uint64_t> masks = {0b11};
+  const std::vector<fields::MaterialSet> masks = {{0, 1}};
   const auto walk = ref::particle_energy(start, features, masks);
   const uint32_t lost = ref::advect(s.fields.embedding, want, features, walk, opt.alpha, opt.max_move);
   CHECK(stats.lost == lost);

@@ -193,9 +193,7 @@ TEST_CASE("add/delete on the host: tiles in parallel give the same population on
   const double hex = 4.0 * M_PI * kSphereR * kSphereR / (0.5 * std::sqrt(3.0));
   const auto pop = random_on_sphere(s, size_t(hex / 3.0), 21);  // 3x too sparse, and random: holes and crowds
   const auto ideals = particles::feature_ideals(E);
-  std::vector<uint64_t> masks;
-  for (const auto& f : E.features) masks.push_back(f.material_mask());
-  const auto walk = ref::particle_energy(pop.particles, pop.features, masks);
+  const auto walk = ref::particle_energy(pop.particles, pop.features, fields::material_sets(E.features));
   std::vector<uint32_t> flags, counters;
   ref::population_flags(walk, pop.features, ideals, 2.0f, 0.5f, flags, counters);
   std::vector<float> energies;

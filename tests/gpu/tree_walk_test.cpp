@@ -35,7 +35,7 @@ void random_particles(uint32_t n, uint32_t seed, size_t feature_count, std::vect
 // Particles on the device, Morton-sorted into an octree with its moments (the walks' input).
 struct Tree {
   Tree(gpu::Context& ctx, const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
-       const std::vector<uint64_t>& masks, float extent)
+       const std::vector<fields::MaterialSet>& masks, float extent)
       : n(uint32_t(particles.size())),
         pb(ctx, particles, "particles"),
         m(ctx, octree::OctreeBuild::node_capacity(n, kLeaf)),
@@ -45,7 +45,7 @@ struct Tree {
         nodes(ctx, octree::OctreeBuild::node_capacity(n, kLeaf), "nodes") {
     octree::MortonSort sorter(ctx);
     octree::OctreeBuild build(ctx);
-    octree::OctreeMoments moments(ctx);
+    octree::OctreeMoments moments(ctx, fields::needs_exact_sets(masks));
     gpu::Buffer<uint64_t> keys(ctx, n, "keys");
     gpu::Buffer<glm::uvec2> info(ctx, 22, "level info");
     gpu::Sequence seq(ctx);
@@ -68,9 +68,9 @@ struct WalkResult {
 };
 
 WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, const std::vector<uint32_t>& features,
-                const std::vector<uint64_t>& masks, float extent, uint32_t walkers = ~0u) {
+                const std::vector<fields::MaterialSet>& masks, float extent, uint32_t walkers = ~0u) {
   const Tree t(ctx, particles, features, masks, extent);
-  octree::TreeWalk tree_walk(ctx);
+  octree::TreeWalk tree_walk(ctx, fields::needs_exact_sets(masks));
   gpu::Buffer<glm::vec4> result(ctx, t.n, "result");
   gpu::Buffer<uint32_t> counts(ctx, t.n, "counts");
   gpu::Sequence seq(ctx);
@@ -83,8 +83,13 @@ WalkResult walk(gpu::Context& ctx, const std::vector<glm::vec4>& particles, cons
 }  // namespace
 
 TEST_CASE_FIXTURE(GpuFixture, "tree walk energies and gradients match brute force, with the feature hierarchy") {
-  // Feature 0: interface {0,1}; 1: triple curve {0,1,2} (bounds 0 and 2); 2: interface {1,2}; 3: interface {3,4}.
-  const std::vector<uint64_t> masks = {0b11, 0b111, 0b110, 0b11000};
+  // Feature 0: interface {7,300}; 1: triple curve {7,300,1001} (bounds 0 and 2); 2: interface {300,1001}; 3:
+  // interface {2,65534}: material indices far beyond 64, the slots compared ({2,62,300} passes the mask test of
+  // {2,65534}, as 65534 % 64 = 62, but does not include it). Or the same hierarchy below 64 (the masks alone).
+  std::vector<fields::MaterialSet> masks = {{7, 300}, {7, 300, 1001}, {300, 1001}, {2, 65534}};
+  SUBCASE("indices beyond 64") { masks.push_back({2, 62, 300}); }
+  SUBCASE("indices below 64") { masks = {{0, 1}, {0, 1, 2}, {1, 2}, {3, 4}, {6, 7}}; }
+  CAPTURE(fields::needs_exact_sets(masks));
   for (uint32_t n : {1u, 64u, 3000u}) {
     CAPTURE(n);
     std::vector<glm::vec4> particles;
@@ -109,12 +114,13 @@ TEST_CASE_FIXTURE(GpuFixture, "tree walk energies and gradients match brute forc
   CHECK(r.result[1].x < 0.0f);  // energy grows towards the curve particle: -gradient pushes the interface one away
 }
 
-TEST_CASE("the walks' per-particle masks are their features' masks in two words") {
-  const std::vector<uint64_t> masks = {0b11, (uint64_t(1) << 40) | 0b101};
+TEST_CASE("the walks' per-particle masks are their features' material sets in two words") {
+  const std::vector<fields::MaterialSet> masks = {{0, 1}, {5, 300, 4000}};
   const auto got = octree::particle_masks({1, 0, 1}, masks);
   REQUIRE(got.size() == 3);
-  CHECK(got[0] == glm::uvec4(0b101u, 1u << 8, 0u, 0u));
-  CHECK(got[1] == glm::uvec4(0b11u, 0u, 0u, 0u));
+  // mask64 (bits 5, 300 % 64 = 44, 4000 % 64 = 32) in x, y; the slots in z, w.
+  CHECK(got[0] == glm::uvec4(1u << 5, 1u << 12 | 1u, 5u | 300u << 16, 4000u | 4000u << 16));
+  CHECK(got[1] == glm::uvec4(0b11u, 0u, 0u | 1u << 16, 1u | 1u << 16));
   CHECK(got[2] == got[0]);
   CHECK(octree::particle_masks({}, masks).empty());
   CHECK_THROWS_AS(octree::particle_masks({2}, masks), std::invalid_argument);
@@ -126,7 +132,7 @@ TEST_CASE_FIXTURE(GpuFixture, "a walk that would pass lavapipe's loop limit is c
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   std::vector<glm::vec4> particles(n);
   for (auto& p : particles) p = glm::vec4(u(rng), u(rng), u(rng), 10.0f);
-  const auto got = walk(ctx, particles, std::vector<uint32_t>(n, 0), {0b11}, 1.0f, walkers);
+  const auto got = walk(ctx, particles, std::vector<uint32_t>(n, 0), {fields::MaterialSet{0, 1}}, 1.0f, walkers);
   size_t flagged = 0, walked = 0;
   for (uint32_t c : got.counts) {
     flagged += (c & octree::TreeWalk::kBudgetExceeded) != 0;
@@ -137,14 +143,14 @@ TEST_CASE_FIXTURE(GpuFixture, "a walk that would pass lavapipe's loop limit is c
 }
 
 TEST_CASE_FIXTURE(GpuFixture, "neighbour lists match brute force, grow past their capacity, and give the walk's energies") {
-  const std::vector<uint64_t> masks = {0b11, 0b111, 0b110, 0b11000};
+  const std::vector<fields::MaterialSet> masks = {{7, 300}, {7, 300, 1001}, {300, 1001}, {2, 65534}};
   const uint32_t n = 3000;
   const float skin = 0.5f;
   std::vector<glm::vec4> particles;
   std::vector<uint32_t> features;
   random_particles(n, 7, masks.size(), particles, features);
   const Tree t(ctx, particles, features, masks, 20.0f);
-  octree::TreeWalk tree_walk(ctx);
+  octree::TreeWalk tree_walk(ctx, fields::needs_exact_sets(masks));
   gpu::Buffer<glm::vec4> result(ctx, n, "result");
   gpu::Buffer<uint32_t> lengths(ctx, n, "lengths"), counts(ctx, n, "counts"), longest(ctx, 1, "longest");
   auto list_walk = [&](uint32_t per_particle, gpu::Buffer<uint32_t>& lists) {
