@@ -1,14 +1,14 @@
 #version 450
 // Octree upsweep, one level (octree::OctreeMoments): per node, the bounding box of its particles, their smallest
-// sizing h, centre of mass and count, and the intersection of their features' material sets (fields::MaterialSet::common) (the far-field
-// approximation of the tree walk may only lump a node whose every particle interacts with the walker); leaves from
-// their particles, internal nodes from their (at most 8) children.
+// sizing h, centre of mass and count, and the intersection of their features' material sets
+// (fields::MaterialSet::common; the far-field approximation of the tree walk may only lump a node whose every
+// particle interacts with the walker); leaves from their particles, internal nodes from their (at most 8) children.
 // Run from level 21 up to the root.
 // Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1 level_info uvec2[22]; 2 order uint[n] (Morton order ->
 //           particle); 3 particles samplerBuffer (xyz position, w sizing h); 4-7 the moments, one vec4 per node in
 //           each: lo (box min, min h), hi (box max, 0), com (centre, count), and_mask (the AND of the masks, then
-//           with EXACT_SETS the intersection of the slots, else 0, as float bits) (four buffers so that each stays within maxStorageBufferRange for a million
-//           particles); 8 masks usamplerBuffer (per particle: its feature's material set, material_set.glsl).
+//           with EXACT_SETS the intersection of the slots, else 0, as float bits) (four buffers so that each stays
+//           within maxStorageBufferRange for a million particles); 8 masks usamplerBuffer (per particle: its feature's material set, material_set.glsl).
 // Push: level. Dispatch: n threads (guarded by the level's node count), 256 per workgroup.
 // Loops: at most LEAF_LOOP particles (more only in a level-21 leaf, whose particles share one 63-bit key, i.e. one
 // position to 2^-21 of the box) or 8 children. Reference: ref::octree_moments.

@@ -3,16 +3,16 @@
 //   d_ij = |p_i - p_j| / (2 cos(pi/6) min(h_i, h_j)),  E_ij = cot(d pi/2) + d pi/2 - pi/2 for d <= 1, else 0.
 // Particle i feels particle j when j lies on i's feature or on a lower-dimensional feature bounding it: the
 // materials of j's feature include those of i's (fields::MaterialSet: a 64-bit mask, and with EXACT_SETS four 16-bit
-// material slots). Nodes whose box is farther than
-// 2 cos(pi/6) h_i are pruned: with the energy's compact support that is exact (theta = 0). With theta > 0 (the
-// paper's Barnes-Hut mode) a node that does not hold the walker, is seen under size / distance < theta and whose
-// particles all interact with the walker (the intersection of their material sets includes the walker's) counts as its particles lumped at their
-// centre of mass with the node's smallest h.
+// material slots; material_set.glsl). Nodes whose box is farther than 2 cos(pi/6) h_i are pruned: with the energy's
+// compact support that is exact (theta = 0). With theta > 0 (the paper's Barnes-Hut mode) a node that does not hold
+// the walker, is seen under size / distance < theta and whose particles all interact with the walker (the
+// intersection of their material sets includes the walker's) counts as its particles lumped at their centre of mass
+// with the node's smallest h.
 // Bindings: 0 nodes usamplerBuffer (uvec4 texels); 1-4 node moments samplerBuffer (box min + min h, box max,
-//           centre + count) and usamplerBuffer (the intersection of the node's material sets); 5 order uint[n]; 6 particles samplerBuffer (xyz, w = h);
-//           7 masks usamplerBuffer (per particle: its feature's material set, material_set.glsl); 8 result vec4[n] (gradient of
-//           E_i wrt p_i in xyz, E_i in w); 9 counts uint[n] (pairs evaluated; bit 31 set when the work budget ran
-//           out); 10 visits uint[n] (nodes visited).
+//           centre + count) and usamplerBuffer (the intersection of the node's material sets); 5 order uint[n];
+//           6 particles samplerBuffer (xyz, w = h); 7 masks usamplerBuffer (per particle: its feature's material
+//           set); 8 result vec4[n] (gradient of E_i wrt p_i in xyz, E_i in w); 9 counts uint[n] (pairs evaluated;
+//           bit 31 set when the work budget ran out); 10 visits uint[n] (nodes visited).
 // The masks are per particle, not per feature (features[j], then feature_masks[that]), so the leaf scans read each
 // candidate's mask as one texel gathered for all lanes: on lavapipe (128^3 wedge ball, 13 k particles, five runs
 // alternating) a walk took 12.8-17.9 ms instead of 17.3-20.5, a list walk 19.2-23.2 instead of 24.8-30.3 (issue 9).

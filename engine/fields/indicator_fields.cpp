@@ -412,7 +412,10 @@ void index_materials_near(IndicatorFields& F) {
         const glm::ivec3 hi = glm::min(glm::ivec3(x, y, z) + 1, bricks - 1);
         for (int c = lo.z; c <= hi.z; ++c)
           for (int b = lo.y; b <= hi.y; ++b)
-            for (int a = lo.x; a <= hi.x; ++a) near.insert(near.end(), in[index({a, b, c})].begin(), in[index({a, b, c})].end());
+            for (int a = lo.x; a <= hi.x; ++a) {
+              const auto& here = in[index({a, b, c})];
+              near.insert(near.end(), here.begin(), here.end());
+            }
         std::sort(near.begin(), near.end());
         near.erase(std::unique(near.begin(), near.end()), near.end());
         F.near_list.insert(F.near_list.end(), near.begin(), near.end());

@@ -33,7 +33,11 @@ uvec2 ms_common(uvec2 a, uvec2 b) {
   const uvec4 a2 = ms_slots2(a);
   const uvec4 keep = uvec4(ms_has2(b, a2.x), ms_has2(b, a2.y), ms_has2(b, a2.z), ms_has2(b, a2.w));
   const uvec4 slots = a2 & 0xffffu;
-  const uint first = keep.x != 0u ? slots.x : keep.y != 0u ? slots.y : keep.z != 0u ? slots.z : keep.w != 0u ? slots.w : 0xffffu;
+  const uint first = keep.x != 0u ? slots.x
+                   : keep.y != 0u ? slots.y
+                   : keep.z != 0u ? slots.z
+                   : keep.w != 0u ? slots.w
+                                  : 0xffffu;
   const uvec4 kept = mix(uvec4(first), slots, bvec4(keep));
   return uvec2(kept.x | (kept.y << 16), kept.z | (kept.w << 16));
 }
