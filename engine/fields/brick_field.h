@@ -28,6 +28,10 @@ class BrickField {
   void set(int i, int j, int k, float value);
   void set_brick_constant(const glm::ivec3& brick, float value);
   void allocate(const glm::ivec3& brick);
+  // Index of a brick (x fastest): what allocated, brick_values and brick_constant look up.
+  size_t brick_index(const glm::ivec3& b) const {
+    return (size_t(b.z) * size_t(brick_dims_.y) + size_t(b.y)) * size_t(brick_dims_.x) + size_t(b.x);
+  }
   bool allocated(const glm::ivec3& brick) const { return slot_[brick_index(brick)] >= 0; }
   float* brick_data(const glm::ivec3& brick);  // null when the brick is constant
   const float* brick_values(const glm::ivec3& brick) const {  // the same, read-only
@@ -56,9 +60,6 @@ class BrickField {
   static void sample_linear_many(const BrickField* const* fields, int count, const glm::dvec3& ijk, double* values);
 
  private:
-  size_t brick_index(const glm::ivec3& b) const {
-    return (size_t(b.z) * size_t(brick_dims_.y) + size_t(b.y)) * size_t(brick_dims_.x) + size_t(b.x);
-  }
   Grid grid_;
   glm::ivec3 brick_dims_{0};
   std::vector<int32_t> slot_;     // per brick: index of its data block, or -1 when constant

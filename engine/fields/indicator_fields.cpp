@@ -360,8 +360,7 @@ std::span<const uint16_t> IndicatorFields::materials_near(const glm::dvec3& ijk)
   if (fields.empty()) return {};
   const glm::ivec3 bricks = fields[0].brick_dims();
   const glm::ivec3 v = glm::clamp(glm::ivec3(glm::floor(ijk)), glm::ivec3(0), grid.dims - 1);
-  const glm::ivec3 b = glm::min(v / BrickField::kBrick, bricks - 1);
-  const size_t i = (size_t(b.z) * size_t(bricks.y) + size_t(b.y)) * size_t(bricks.x) + size_t(b.x);
+  const size_t i = fields[0].brick_index(glm::min(v / BrickField::kBrick, bricks - 1));
   return std::span(near_list.data() + near_begin[i], near_begin[i + 1] - near_begin[i]);
 }
 
@@ -391,9 +390,7 @@ void index_materials_near(IndicatorFields& F) {
   if (F.fields.empty()) return;
   const glm::ivec3 bricks = F.fields[0].brick_dims();
   const float floor = -float(F.band);
-  auto index = [&](const glm::ivec3& b) {
-    return (size_t(b.z) * size_t(bricks.y) + size_t(b.y)) * size_t(bricks.x) + size_t(b.x);
-  };
+  auto index = [&](const glm::ivec3& b) { return F.fields[0].brick_index(b); };
   // Per brick, the materials present in it; then each brick's list is the union over its 3x3x3 neighbourhood.
   std::vector<std::vector<uint16_t>> in(size_t(bricks.x) * size_t(bricks.y) * size_t(bricks.z));
   for (size_t m = 0; m < F.fields.size(); ++m)

@@ -69,8 +69,7 @@ std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E,
 }
 
 // The closest point to p of the feature of exactly `materials` (ascending: a triple curve or quadruple point), when
-// it exists
-// and lies within h of p.
+// it exists and lies within h of p.
 std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p,
                                           const std::vector<uint16_t>& materials) {
   const int n = int(materials.size());
