@@ -193,6 +193,23 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     vertex_h.emplace_back();
     set_vertex(points.size() - 1, p, f, h);
   };
+  std::vector<uint8_t> moved;  // points the refinement moved: they stay where they went
+  auto remove_vertices = [&](std::vector<uint32_t> gone) {
+    if (gone.empty()) return;
+    std::sort(gone.begin(), gone.end());
+    size_t kept = 0, g = 0;
+    for (size_t v = 0; v < points.size(); ++v) {
+      if (g < gone.size() && gone[g] == v) {
+        ++g;
+        continue;
+      }
+      std::tie(points[kept], kind[kept], vertex_materials[kept], vertex_h[kept], vertex_feature[kept], moved[kept]) =
+          std::tie(points[v], kind[v], vertex_materials[v], vertex_h[v], vertex_feature[v], moved[v]);
+      ++kept;
+    }
+    points.resize(kept), kind.resize(kept), vertex_materials.resize(kept), vertex_h.resize(kept);
+    vertex_feature.resize(kept), moved.resize(kept);
+  };
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
 
@@ -216,7 +233,6 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     T = delaunay_mesh->tets(&adj);
   });
   std::vector<uint16_t> material, hull;
-  std::vector<uint8_t> moved;  // points the refinement moved: they stay where they went
   size_t fewest_faces = SIZE_MAX;
   int stalled = 0;
   // The round with the fewest faces to refine: where later rounds made it worse (samples crowding a thin sheet's
@@ -250,6 +266,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     }
     // A round that leaves more faces to refine than the best round three rounds ago ends it: what is left cycles.
     stalled = faces.size() < fewest_faces ? 0 : stalled + 1;
+    update("refinement round " + std::to_string(round) + ": " + count(faces.size()) + " faces to mend, " +
+           count(points.size()) + " points");
     const bool last = sites.empty() || round == options.repair_rounds || stalled == 3;
     if (faces.size() < fewest_faces && !last)
       best = {T, adj, material, hull, points, kind, vertex_materials, vertex_h, vertex_feature, rep};
@@ -263,8 +281,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     fewest_faces = std::min(fewest_faces, faces.size());
     if (last) break;
     const Refinement extra =
-        refinement_points(F.embedding, sites, points, vertex_materials, moved, options.junction_protection);
-    if (extra.added.empty() && extra.moved.empty()) break;
+        refinement_points(F.fields, F.embedding, sites, {points, vertex_materials, vertex_h, moved},
+                          options.junction_protection);
+    if (extra.added.empty() && extra.moved.empty() && extra.removed.empty()) break;
     std::vector<glm::dvec3> positions;
     for (const RefinePoint& e : extra.added) {
       add_vertex(e.position, e.feature, e.h);
@@ -275,11 +294,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       set_vertex(v, e.position, e.feature, e.h);
       moved[v] = 1;
     }
+    remove_vertices(extra.removed);
     rep.refinement_points += extra.added.size();
     rep.refinement_moves += extra.moved.size();
+    rep.refinement_removals += extra.removed.size();
     timed([&] {
-      if (extra.moved.empty()) delaunay_mesh->insert(positions);
-      else delaunay_mesh.emplace(points);  // moved points: the tetrahedralization starts again
+      if (extra.moved.empty() && extra.removed.empty()) delaunay_mesh->insert(positions);
+      else delaunay_mesh.emplace(points);  // moved or removed points: the tetrahedralization starts again
       T = delaunay_mesh->tets(&adj);
     });
   }

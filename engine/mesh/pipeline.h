@@ -111,6 +111,7 @@ struct MeshReport {
   size_t wrong_faces_before_repair = 0, relabelled_tets = 0, wrong_faces = 0;  // extract.h "Repair"
   size_t refinement_points = 0;  // samples the Delaunay refinement added (refine.h)
   size_t refinement_moves = 0;   // particles on the wrong feature moved to a refinement sample
+  size_t refinement_removals = 0;  // particles on the wrong feature with no junction to move to, left out
   int refinement_rounds = 0;
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing

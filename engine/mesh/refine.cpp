@@ -8,6 +8,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include "fields/closest_point_embedding.h"
 #include "ref/cp_lookup.h"
 
 namespace cpmesh::mesh {
@@ -126,8 +127,11 @@ std::vector<RefineSite> face_sites(const fields::IndicatorFields& F, const Tets&
     const uint32_t nb = adj.neighbour[tc];
     const glm::dvec3 a = label_point(T, tc / 4), b = nb == Adjacency::kHull ? hull_sample_point(F, T, tc) : label_point(T, nb / 4);
     RefineSite s{(T.points[f[0]] + T.points[f[1]] + T.points[f[2]]) / 3.0, material[tc / 4],
-                 material_across(adj, hull, material, tc), {}, f};
+                 material_across(adj, hull, material, tc), {}, f, 0.0, false};
     if (const auto c = material_change(F, a, b)) s.at = *c;
+    s.radius = std::min({glm::length(T.points[f[0]] - s.at), glm::length(T.points[f[1]] - s.at),
+                         glm::length(T.points[f[2]] - s.at)});
+    s.wrong = face_is_wrong(T, tc, s.m, s.o, vertex_materials);
     s.vertex_materials = fields::union_of(std::array{vertex_materials[f[0]], vertex_materials[f[1]], vertex_materials[f[2]]});
     out[i] = s;
   });
@@ -173,29 +177,47 @@ std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
   return out;
 }
 
-Refinement refinement_points(const fields::ClosestPointEmbedding& E, const std::vector<RefineSite>& sites,
-                             const std::vector<glm::dvec3>& points, const std::vector<fields::MaterialSet>& vertex_materials,
-                             const std::vector<uint8_t>& fixed, double protection) {
-  std::vector<RefinePoint> chosen;
-  for (const RefineSite& s : sites) {
-    // As the junction protection leaves interface particles out near curves and points: a point or curve whose
-    // closest point lies within `protection` x h of the site takes the sample (the lowest dimension first), else
-    // the nearest feature does.
-    RefinePoint best{}, nearest{};
-    double nearest_distance = INFINITY;
-    int best_rank = 3;
-    for (uint32_t f : candidate_features(E, s)) {
-      const auto cp = ref::cp_lookup(E, glm::vec3(s.at), f);
-      if (!cp.valid) continue;
-      const glm::dvec3 q(glm::vec3(cp.value));
-      const double d = glm::length(q - s.at);
-      const int rank = int(E.features[f].kind);  // 0 point, 1 curve, 2 interface
-      if (d < nearest_distance) nearest_distance = d, nearest = {q, f, cp.value.w};
-      if (rank < 2 && d < protection * cp.value.w && rank < best_rank) best_rank = rank, best = {q, f, cp.value.w};
-    }
-    chosen.push_back(best_rank < 3 ? best : nearest);
-    if (best_rank == 3 && !std::isfinite(nearest_distance)) chosen.back().h = -1;  // no feature here: skipped
+namespace {
+
+// The closest point of feature f to p: the embedding's lookup, or where its stencil is incomplete, Newton on the
+// fields from p, kept when it converges onto the feature (no other material above it) within `reach` of p.
+std::optional<RefinePoint> closest_on_feature(const fields::IndicatorFields& F, const fields::ClosestPointEmbedding& E,
+                                              const glm::dvec3& p, uint32_t f, double reach, float h) {
+  const auto cp = ref::cp_lookup(E, glm::vec3(p), f);
+  if (cp.valid) return RefinePoint{glm::dvec3(glm::vec3(cp.value)), f, cp.value.w};
+  glm::dvec3 q;
+  if (!fields::project_to_feature(F, E.features[f], p, q, 30, 3, nullptr, true)) return std::nullopt;
+  if (!(glm::length(q - p) <= reach) || !(fields::feature_distance(F, E.features[f], q) < 0.05 * F.grid.min_spacing()))
+    return std::nullopt;
+  return RefinePoint{q, f, h};
+}
+
+// Per site, the sample: as the junction protection leaves interface particles out near curves and points, a point
+// or curve whose closest point lies within `protection` x h of the site takes it (the lowest dimension first), else
+// the nearest feature does; h -1 where no feature has a closest point here.
+RefinePoint site_sample(const fields::IndicatorFields& F, const fields::ClosestPointEmbedding& E, const RefineSite& s,
+                        const RefineVertices& V, double protection) {
+  const float face_h = std::min({V.h[s.vertices[0]], V.h[s.vertices[1]], V.h[s.vertices[2]]});
+  RefinePoint best{}, nearest{{}, 0, -1};
+  double nearest_distance = INFINITY;
+  int best_rank = 3;
+  for (uint32_t f : candidate_features(E, s)) {
+    const auto c = closest_on_feature(F, E, s.at, f, std::max(2.0 * s.radius, double(face_h)), face_h);
+    if (!c) continue;
+    const double d = glm::length(c->position - s.at);
+    const int rank = int(E.features[f].kind);  // 0 point, 1 curve, 2 interface
+    if (d < nearest_distance) nearest_distance = d, nearest = *c;
+    if (rank < 2 && d < protection * c->h && rank < best_rank) best_rank = rank, best = *c;
   }
+  return best_rank < 3 ? best : nearest;
+}
+
+}  // namespace
+
+Refinement refinement_points(const fields::IndicatorFields& F, const fields::ClosestPointEmbedding& E,
+                             const std::vector<RefineSite>& sites, const RefineVertices& V, double protection) {
+  std::vector<RefinePoint> chosen(sites.size());
+  tbb::parallel_for(size_t(0), sites.size(), [&](size_t i) { chosen[i] = site_sample(F, E, sites[i], V, protection); });
   // Crowding, against the points and then among the new ones in site order. A point in the way that lies on no
   // feature of the site's two materials is on the wrong feature there: it moves to the sample instead.
   float largest_h = 0;
@@ -203,30 +225,41 @@ Refinement refinement_points(const fields::ClosestPointEmbedding& E, const std::
   Refinement out;
   if (chosen.empty() || !(largest_h > 0)) return out;
   PointHash near(kCrowding * largest_h);
-  for (size_t v = 0; v < points.size(); ++v) near.add(points[v], int64_t(v));
-  std::vector<uint8_t> moved = fixed;
-  moved.resize(points.size());
+  for (size_t v = 0; v < V.points.size(); ++v) near.add(V.points[v], int64_t(v));
+  std::vector<uint8_t> taken(V.points.size(), 0);  // moved or removed in this round
+  auto fixed = [&](size_t v) { return v < V.fixed.size() && V.fixed[v]; };
   auto move = [&](uint32_t v, const RefinePoint& to) {
-    moved[v] = 1;
+    taken[v] = 1;
     out.moved.push_back({v, to});
     near.add(to.position, -2);
+  };
+  const double floor = kMinCrowding * F.grid.min_spacing();
+  auto crowding = [&](const RefinePoint& c, const RefineSite& s) {
+    return std::max(floor, s.wrong ? kCrowding * c.h : std::min(kCrowding * c.h, kBallShare * s.radius));
   };
   for (size_t i = 0; i < chosen.size(); ++i) {
     const RefinePoint& c = chosen[i];
     if (!(c.h > 0)) continue;
-    const int64_t v = near.nearest_within(c.position, kCrowding * c.h);
+    const int64_t v = near.nearest_within(c.position, crowding(c, sites[i]));
     const uint16_t m = sites[i].m, o = sites[i].o;
-    auto lacks_pair = [&](size_t w) { return !vertex_materials[w].has(m) || !vertex_materials[w].has(o); };
+    auto lacks_pair = [&](size_t w) { return !V.materials[w].has(m) || !V.materials[w].has(o); };
     if (v == -1) {
       out.added.push_back(c);
       near.add(c.position, -2);
-    } else if (v >= 0 && !moved[size_t(v)] && lacks_pair(size_t(v))) {
+    } else if (v >= 0 && !taken[size_t(v)] && !fixed(size_t(v)) && lacks_pair(size_t(v))) {
       move(uint32_t(v), c);
     } else if (v >= 0) {
-      for (uint32_t w : sites[i].vertices)
-        if (!moved[w] && lacks_pair(w))
-          if (const auto to = junction_point(E, points[w], fields::union_of(std::span(&vertex_materials[w], 1), {m, o})))
-            move(w, *to);
+      // A point on a right feature is in the way: the face's vertices that lack one of the two materials move to
+      // the junction of their own materials and the two, where it lies within h and has room, or are removed.
+      for (uint32_t w : sites[i].vertices) {
+        if (taken[w] || !lacks_pair(w)) continue;
+        const auto to = junction_point(E, V.points[w], fields::union_of(std::span(&V.materials[w], 1), {m, o}));
+        const int64_t in_way = to ? near.nearest_within(to->position, crowding(*to, sites[i])) : -1;
+        if (to && !fixed(w) && (in_way == -1 || in_way == int64_t(w)))
+          move(w, *to);
+        else
+          taken[w] = 1, out.removed.push_back(w);
+      }
     }
   }
   return out;

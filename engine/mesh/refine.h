@@ -7,9 +7,15 @@
 // own patch, curve or an incident corner, each such place gets a new sample on the feature it is missing: the
 // closest point, to the place, of the feature of m and o (their interface, or a triple curve or quadruple point of m,
 // o and the materials of the place's vertices) that lies nearest; the Delaunay takes the points and the faces are
-// labelled again. A vertex on the wrong feature where a sample is due moves there; other samples nearer than
-// kCrowding x h to a vertex or to another new sample are not added, so a round that finds no room adds nothing and
-// the refinement ends.
+// labelled again. A vertex on the wrong feature where a sample is due moves there; other samples nearer than the
+// crowding radius to a vertex or to another new sample are not added, so a round that finds no room adds nothing and
+// the refinement ends. The crowding radius is kCrowding x h; around a face whose vertices are all on the right
+// features but whose edges are not manifold it is less where the face is smaller than that: half its surface
+// Delaunay ball's radius (which no point lies within), so a thin sheet or a tube's wall sampled too sparsely for its
+// thickness gets samples closer than h, as Delaunay refinement shrinks the balls until the topology is right
+// (kMinCrowding voxels bounds it from below). A wrong face keeps kCrowding x h: what it lacks is a junction sample,
+// and interface samples squeezed in beside the junction only make more wrong faces (the 40^3 wedge ball without
+// junction protection: 84 wrong faces left instead of none).
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -29,6 +35,8 @@ struct RefinePoint {
 };
 
 constexpr double kCrowding = 0.3;
+constexpr double kBallShare = 0.5;
+constexpr double kMinCrowding = 0.05;  // voxels
 
 // A place that needs a sample: where it is (local coordinates), the two materials (indices) of the face or edge,
 // and the materials its vertices lie on (the union of their features' material sets, ascending).
@@ -37,6 +45,8 @@ struct RefineSite {
   uint16_t m, o;
   std::vector<uint16_t> vertex_materials;
   std::array<uint32_t, 3> vertices;  // the face's
+  double radius;                     // from `at` to the face's nearest vertex: its surface Delaunay ball's radius
+  bool wrong;                        // a vertex lacks m or o (face_is_wrong), rather than an edge not manifold
 };
 
 // Sites of tet faces (tet * 4 + corner): per face, where its dual Voronoi edge (from the label point of its tet to
@@ -52,19 +62,28 @@ std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const 
 // fewer than three interface triangles share or that end at an interface vertex.
 std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& mesh);
 
-// New samples for the sites: per site the closest point of a candidate feature (found in the embedding near the
-// site): a triple curve or quadruple point whose closest point lies within `protection` x h (the junction
-// protection's distance), else the nearest. A sample within kCrowding x h of a point that lies on no feature of the
-// site's two materials moves that point there (it was on the wrong feature). Where a point on a right feature is in
-// the way, the face's vertices that lack one of the two materials move instead, each to the closest point of the
-// feature of its own materials and the two (a junction it lies next to) within h of it. Points in `fixed` (moved in
-// earlier rounds) stay. Samples near a sample chosen before them are dropped.
+// New samples for the sites: per site the closest point of a candidate feature (from the embedding, or by Newton on
+// the fields where the embedding's stencil is incomplete, as at a thin part's edge; h is then the smallest of the
+// face's vertices'): a triple curve or quadruple point whose closest point lies within `protection` x h (the
+// junction protection's distance), else the nearest. A sample within the crowding radius of a point that lies on no
+// feature of the site's two materials moves that point there (it was on the wrong feature). Where a point on a right
+// feature is in the way, the face's vertices that lack one of the two materials move instead, each to the closest
+// point of the feature of its own materials and the two (a junction it lies next to) within h of it where that has
+// room, or are removed (as the junction protection leaves out interface particles beside a junction). Points in
+// `fixed` (moved in earlier rounds) are removed rather than moved again. Samples near a sample chosen before them
+// are dropped.
 struct Refinement {
   std::vector<RefinePoint> added;
   std::vector<std::pair<uint32_t, RefinePoint>> moved;  // point index, where it goes and its new feature
+  std::vector<uint32_t> removed;                         // points on a wrong feature with no junction to go to
 };
-Refinement refinement_points(const fields::ClosestPointEmbedding& embedding, const std::vector<RefineSite>& sites,
-                             const std::vector<glm::dvec3>& points, const std::vector<fields::MaterialSet>& vertex_materials,
-                             const std::vector<uint8_t>& fixed, double protection);
+struct RefineVertices {
+  const std::vector<glm::dvec3>& points;
+  const std::vector<fields::MaterialSet>& materials;
+  const std::vector<float>& h;
+  const std::vector<uint8_t>& fixed;
+};
+Refinement refinement_points(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
+                             const std::vector<RefineSite>& sites, const RefineVertices& vertices, double protection);
 
 }  // namespace cpmesh::mesh
