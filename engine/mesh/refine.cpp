@@ -248,6 +248,8 @@ Refinement refinement_points(const fields::IndicatorFields& F, const fields::Clo
       near.add(c.position, -2);
     } else if (v >= 0 && !taken[size_t(v)] && !fixed(size_t(v)) && lacks_pair(size_t(v))) {
       move(uint32_t(v), c);
+    } else if (v >= 0 && !taken[size_t(v)] && lacks_pair(size_t(v))) {
+      taken[size_t(v)] = 1, out.removed.push_back(uint32_t(v));
     } else if (v >= 0) {
       // A point on a right feature is in the way: the face's vertices that lack one of the two materials move to
       // the junction of their own materials and the two, where it lies within h and has room, or are removed.
