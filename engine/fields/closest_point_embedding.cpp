@@ -769,21 +769,24 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
                                 " voxels deep, but their band is " + std::to_string(F.band / h) +
                                 " voxels; raise the indicator band or use more subcells");
   tbb::enumerable_thread_specific<std::vector<uint64_t>> local_entries;
+  tbb::enumerable_thread_specific<size_t> local_blocks(0);  // every feature's, in the curves-only pass too
   tbb::parallel_for(fields_brick_rows(F), [&](const tbb::blocked_range2d<int>& r) {
     auto& out = local_entries.local();
+    size_t& blocks = local_blocks.local();
     std::vector<int> near;
     for_each_voxel_values(F, r, [&](const glm::ivec3& c, std::span<const uint16_t> mats, const float* f) {
       near.clear();
       for (size_t k = 0; k < mats.size(); ++k)
         if (f[k] > -reach) near.push_back(mats[k]);
       for_each_material_subset(near.data(), int(std::min<size_t>(near.size(), 8)), [&](const MaterialKey& s, int bits) {
-        if (curves_only && bits < 3) return;
         const auto it = feature_of.find(s);
-        if (it != feature_of.end() && near_found[it->second][bin_of(c.x, c.y, c.z)])
-          out.push_back((uint64_t(grid.index(c.x, c.y, c.z)) << 16) | it->second);
+        if (it == feature_of.end() || !near_found[it->second][bin_of(c.x, c.y, c.z)]) return;
+        ++blocks;
+        if (!curves_only || bits >= 3) out.push_back((uint64_t(grid.index(c.x, c.y, c.z)) << 16) | it->second);
       });
     });
   });
+  if (options.check_blocks) options.check_blocks(local_blocks.combine(std::plus<size_t>()), E.sub);
   std::vector<uint64_t> cells;
   for (auto& part : local_entries) cells.insert(cells.end(), part.begin(), part.end());
   tbb::parallel_sort(cells.begin(), cells.end());

@@ -13,6 +13,7 @@
 // Coarse cells are found through an open-addressing hash table keyed by (cell index, feature), so memory grows with
 // the interface area and the number of features, never with volume x features.
 #include <array>
+#include <functional>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -53,6 +54,11 @@ struct EmbeddingOptions {
                                  // themselves (below; 0: off)
   bool junction_extrapolation = true;  // before that fit, T-junction curve points go to where their interfaces,
                                        // extended from 2.5-6 voxels away, meet (below; needs curve_smoothing)
+  // Called with the whole embedding's block count and subcells as soon as they are known, before any fine point is
+  // projected: in the curve smoothing's pass (which counts every feature's blocks, though it projects only the
+  // curves') and again in the embedding's. A limit that cannot be met (the device's bindings:
+  // GpuEmbedding::check_fits) throws there, seconds into the fields rather than after the whole embedding.
+  std::function<void(size_t blocks, int sub)> check_blocks;
 };
 
 // The fine spacing when EmbeddingOptions::sub is 0, from the smallest particle spacing the sizing field may ask for

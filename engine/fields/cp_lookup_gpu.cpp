@@ -64,8 +64,35 @@ int64_t EmbeddingTiles::find_block(const glm::ivec3& cell, uint32_t feature) con
   return block == kNoBlock ? -1 : int64_t(block);
 }
 
+FieldsOptions with_device_limits(FieldsOptions options, const gpu::Context& ctx) {
+  options.embedding.check_blocks = [&ctx](size_t blocks, int sub) { GpuEmbedding::check_fits(ctx, blocks, sub); };
+  return options;
+}
+
+uint32_t GpuEmbedding::chunk_blocks_for(const gpu::Context& ctx, int sub, uint64_t max_chunk_bytes) {
+  const uint64_t block_bytes = uint64_t(sub * sub * sub) * sizeof(glm::vec4);
+  // A chunk is a buffer (within maxStorageBufferRange) bound as a texel buffer (within maxTexelBufferElements).
+  const uint64_t limit = max_chunk_bytes ? max_chunk_bytes
+                                         : std::min(ctx.info().max_storage_buffer_range,
+                                                    ctx.info().max_texel_buffer_elements * sizeof(glm::vec4));
+  return uint32_t(std::max<uint64_t>(1, limit / block_bytes));
+}
+
+void GpuEmbedding::check_fits(const gpu::Context& ctx, size_t blocks, int sub, uint64_t max_chunk_bytes) {
+  const uint64_t block_bytes = uint64_t(sub * sub * sub) * sizeof(glm::vec4);
+  const uint32_t per_chunk = chunk_blocks_for(ctx, sub, max_chunk_bytes);
+  if (blocks > size_t(per_chunk) * kFineChunks)
+    throw gpu::Error("the closest point embedding has " + std::to_string(blocks) + " blocks (" +
+                     gpu::format_bytes(blocks * block_bytes) + "); " + ctx.info().name + " binds at most " +
+                     std::to_string(kFineChunks) + " x " + gpu::format_bytes(uint64_t(per_chunk) * block_bytes) +
+                     "; use fewer subcells (--subcells), a coarser volume, or a device with a larger "
+                     "maxStorageBufferRange and maxTexelBufferElements");
+}
+
 GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, uint64_t max_chunk_bytes)
     : dims(E.grid.dims), sub(E.sub), spacing(E.grid.spacing) {
+  const size_t total_blocks = E.block_count();
+  check_fits(ctx, total_blocks, E.sub, max_chunk_bytes);
   const EmbeddingTiles T = build_embedding_tiles(E);
   tile_keys = gpu::Buffer<uint64_t>(ctx, T.keys, "embedding tile keys");
   tiles = gpu::Buffer<uint32_t>(ctx, T.tiles, "embedding tiles");
@@ -73,19 +100,7 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
   const std::vector<uint32_t> cells = T.cells.empty() ? std::vector<uint32_t>(1, EmbeddingTiles::kNoBlock) : T.cells;
   tile_cells = gpu::Buffer<uint32_t>(ctx, cells, "embedding tile cells");
   table_mask = uint32_t(T.keys.size() - 1);
-  const uint64_t block_bytes = uint64_t(E.sub * E.sub * E.sub) * sizeof(glm::vec4);
-  // A chunk is a buffer (within maxStorageBufferRange) bound as a texel buffer (within maxTexelBufferElements).
-  const uint64_t limit = max_chunk_bytes ? max_chunk_bytes
-                                         : std::min(ctx.info().max_storage_buffer_range,
-                                                    ctx.info().max_texel_buffer_elements * sizeof(glm::vec4));
-  chunk_blocks = uint32_t(std::max<uint64_t>(1, limit / block_bytes));
-  const size_t total_blocks = E.block_count();
-  if (total_blocks > size_t(chunk_blocks) * kFineChunks)
-    throw gpu::Error("the closest point embedding has " + std::to_string(total_blocks) + " blocks (" +
-                     gpu::format_bytes(total_blocks * block_bytes) + "); " + ctx.info().name + " binds at most " +
-                     std::to_string(kFineChunks) + " x " + gpu::format_bytes(uint64_t(chunk_blocks) * block_bytes) +
-                     "; use fewer subcells (--subcells), a coarser volume, or a device with a larger "
-                     "maxStorageBufferRange and maxTexelBufferElements");
+  chunk_blocks = chunk_blocks_for(ctx, E.sub, max_chunk_bytes);
   chunks = uint32_t(std::max<size_t>(1, (total_blocks + chunk_blocks - 1) / chunk_blocks));
   const size_t per_block = size_t(E.sub * E.sub * E.sub);
   for (int c = 0; c < kFineChunks; ++c) {

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fields/closest_point_embedding.h"
+#include "fields/fields_stage.h"
 #include "gpu/sequence.h"
 
 namespace cpmesh::fields {
@@ -38,6 +39,11 @@ struct GpuEmbedding {
   static constexpr int kFineChunks = 4;
   // max_chunk_bytes: 0 = the device's limits (above); tests lower it to exercise the split on small data.
   GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& embedding, uint64_t max_chunk_bytes = 0);
+  // Throws gpu::Error, naming the blocks, their bytes and the device's limit, where an embedding of `blocks` blocks
+  // at `sub` subcells does not fit kFineChunks buffers of the device (EmbeddingOptions::check_blocks).
+  static void check_fits(const gpu::Context& ctx, size_t blocks, int sub, uint64_t max_chunk_bytes = 0);
+  // Blocks per fine chunk at `sub`: the device's binding limits, or max_chunk_bytes where given.
+  static uint32_t chunk_blocks_for(const gpu::Context& ctx, int sub, uint64_t max_chunk_bytes = 0);
   // EmbeddingTiles on the device: keys read as uvec2 (low word first), two per texel.
   gpu::Buffer<uint64_t> tile_keys;
   gpu::Buffer<uint32_t> tiles, tile_cells;
@@ -65,5 +71,8 @@ class CpLookup {
   mutable std::vector<uint32_t> spec_;
   mutable std::optional<gpu::Kernel> kernel_;
 };
+
+// The options with EmbeddingOptions::check_blocks set to GpuEmbedding::check_fits on this device.
+FieldsOptions with_device_limits(FieldsOptions options, const gpu::Context& ctx);
 
 }  // namespace cpmesh::fields

@@ -15,6 +15,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "fields/cp_lookup_gpu.h"
 #include "fields/volume_grid.h"
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
@@ -110,7 +111,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   begin("fields");
   const fields::Grid grid = fields::grid_of(volume);
-  const auto F = fields::build_fields(grid, volume.labels.data(), options.fields);
+  const auto F = fields::build_fields(grid, volume.labels.data(), fields::with_device_limits(options.fields, ctx));
   rep.steps.push_back({"fields", "indicator fields", F.report.indicator_seconds});
   rep.steps.push_back({"fields", "embedding", F.report.embedding_seconds});
   rep.steps.push_back({"fields", "sizing field", F.report.sizing_seconds});

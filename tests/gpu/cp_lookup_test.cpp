@@ -106,4 +106,9 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: w
   const uint64_t chunk = uint64_t((E.block_count() + 3) / 4) * 8 * sizeof(glm::vec4);
   compare(ctx, E, queries, chunk);
   CHECK_THROWS_WITH_AS(fields::GpuEmbedding(ctx, E, chunk / 4), doctest::Contains("blocks"), gpu::Error);
+  // The same test, as the fields stage runs it before the embedding's fine points (EmbeddingOptions::check_blocks).
+  CHECK_NOTHROW(fields::GpuEmbedding::check_fits(ctx, E.block_count(), E.sub, chunk));
+  CHECK_THROWS_WITH_AS(fields::GpuEmbedding::check_fits(ctx, E.block_count(), E.sub, chunk / 4),
+                       doctest::Contains((std::to_string(E.block_count()) + " blocks").c_str()), gpu::Error);
+  CHECK_NOTHROW(fields::with_device_limits({}, ctx).embedding.check_blocks(E.block_count(), E.sub));
 }

@@ -156,6 +156,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               } catch (const mesh::ParticleBudgetError& e) {
                 if (line_open) std::fputc('\n', stderr);  // the error goes on a line of its own
                 throw std::runtime_error(o->input.path + ": " + e.what());
+              } catch (const gpu::Error& e) {  // a device limit the volume's embedding exceeds, or the device itself
+                if (line_open) std::fputc('\n', stderr);
+                throw std::runtime_error(o->input.path + ": " + e.what());
               } catch (...) {
                 if (line_open) std::fputc('\n', stderr);
                 throw;

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "fields/cp_lookup_gpu.h"
 #include "fields/fields_stage.h"
 #include "fields/volume_grid.h"
 #include "gpu/describe.h"
@@ -84,12 +85,14 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
             const double padding = fields::face_padding(o->fields, input);
             const io::LabelVolume volume = fields::close_at_faces(std::move(input), padding);
             const fields::Grid grid = fields::grid_of(volume);
-            const auto F = progress.stage("fields", [&] { return fields::build_fields(grid, volume.labels.data(), o->fields); });
+            gpu::Context ctx(g.context());
+            const auto F = progress.stage("fields", [&] {
+              return fields::build_fields(grid, volume.labels.data(), fields::with_device_limits(o->fields, ctx));
+            });
             particles::SeedStats seeded;
             const auto seeds = progress.stage("seeding", [&] {
               return particles::seed_population(F.embedding, o->population, &seeded, o->grid_seeding);
             });
-            gpu::Context ctx(g.context());
             const auto r = progress.stage("advection and add/delete", [&] {
               return particles::relax(ctx, F.embedding, seeds,
                                       particles::with_sizing_grading(o->advection, o->fields.sizing.grading),
