@@ -61,6 +61,12 @@ struct EmbeddingOptions {
   std::function<void(size_t blocks, int sub)> check_blocks;
 };
 
+// What an EmbeddingOptions::check_blocks throws where the embedding will not fit: why, and at how many subcells.
+struct EmbeddingTooLarge : std::runtime_error {
+  EmbeddingTooLarge(const std::string& why, int sub) : std::runtime_error(why), sub(sub) {}
+  int sub;
+};
+
 // The fine spacing when EmbeddingOptions::sub is 0, from the smallest particle spacing the sizing field may ask for
 // (SizingOptions::h_min, in voxels) and the share of the label-boundary voxels that lie in thin parts
 // (IndicatorFields::protected_voxels, parts under about two voxels thick; build_fields counts it as 1 where they were

@@ -64,11 +64,6 @@ int64_t EmbeddingTiles::find_block(const glm::ivec3& cell, uint32_t feature) con
   return block == kNoBlock ? -1 : int64_t(block);
 }
 
-FieldsOptions with_device_limits(FieldsOptions options, const gpu::Context& ctx) {
-  options.embedding.check_blocks = [&ctx](size_t blocks, int sub) { GpuEmbedding::check_fits(ctx, blocks, sub); };
-  return options;
-}
-
 uint32_t GpuEmbedding::chunk_blocks_for(const gpu::Context& ctx, int sub, uint64_t max_chunk_bytes) {
   const uint64_t block_bytes = uint64_t(sub * sub * sub) * sizeof(glm::vec4);
   // A chunk is a buffer (within maxStorageBufferRange) bound as a texel buffer (within maxTexelBufferElements).

@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "fields/closest_point_embedding.h"
-#include "fields/fields_stage.h"
 #include "gpu/sequence.h"
 
 namespace cpmesh::fields {
@@ -71,8 +70,5 @@ class CpLookup {
   mutable std::vector<uint32_t> spec_;
   mutable std::optional<gpu::Kernel> kernel_;
 };
-
-// The options with EmbeddingOptions::check_blocks set to GpuEmbedding::check_fits on this device.
-FieldsOptions with_device_limits(FieldsOptions options, const gpu::Context& ctx);
 
 }  // namespace cpmesh::fields

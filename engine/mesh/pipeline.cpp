@@ -15,7 +15,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "fields/cp_lookup_gpu.h"
+#include "fields/device_fields.h"
 #include "fields/volume_grid.h"
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
@@ -77,9 +77,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   const io::LabelVolume merged = rep.dropped_labels.empty() ? io::LabelVolume{} : merge_labels(chosen, rep.dropped_labels);
   const io::LabelVolume& meshed = rep.dropped_labels.empty() ? chosen : merged;
   check_label_limit(meshed);  // in a moment, not after the fields
-  const io::LabelVolume volume = fields::close_at_faces(meshed, fields::face_padding(options.fields, input));
   using clock = std::chrono::steady_clock;
-  for (int a = 0; a < 3; ++a) rep.face_padding[a] = (volume.dims[a] - input.dims[a]) / 2;
   auto t = clock::now();
   const int stage_count = options.only_surfaces ? 6 : 7;
   int stage_index = 0;
@@ -110,14 +108,18 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   };
 
   begin("fields");
+  const fields::DeviceFields device_fields = fields::build_device_fields(ctx, meshed, options.fields);
+  const io::LabelVolume& volume = device_fields.volume;
+  for (int a = 0; a < 3; ++a) rep.face_padding[a] = (volume.dims[a] - input.dims[a]) / 2;
   const fields::Grid grid = fields::grid_of(volume);
-  const auto F = fields::build_fields(grid, volume.labels.data(), fields::with_device_limits(options.fields, ctx));
+  const auto& F = device_fields.fields;
   rep.steps.push_back({"fields", "indicator fields", F.report.indicator_seconds});
   rep.steps.push_back({"fields", "embedding", F.report.embedding_seconds});
   rep.steps.push_back({"fields", "sizing field", F.report.sizing_seconds});
   {
     char d[384], thin[96] = "";
     rep.subcells = F.embedding.sub;
+    rep.one_subcell_because = device_fields.one_subcell_because;
     rep.band_voxels = F.fields.band / grid.min_spacing();
     const auto& stats = F.embedding.stats;
     if (stats.failed_points > 0)
@@ -125,9 +127,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
                     100.0 * stats.failed_share());
     std::snprintf(d, sizeof d,
                   "%zu interfaces, %zu triple curves, %zu quadruple points; sizing h %.3g..%.3g; embedding %d subcells, "
-                  "band %.3g voxels%s%s",
+                  "band %.3g voxels%s%s%s",
                   F.report.interfaces, F.report.triple_curves, F.report.quadruple_points, F.report.sizing.h_min,
-                  F.report.sizing.h_max, rep.subcells, rep.band_voxels, thin,
+                  F.report.sizing.h_max, rep.subcells, rep.band_voxels,
+                  rep.one_subcell_because.empty() ? "" : " (two would not fit the device)", thin,
                   rep.face_padding[0] > 0 ? "; labels on the volume's faces: closed by label 0 outside" : "");
     stage_done(d);
   }

@@ -101,6 +101,7 @@ struct MeshReport {
   std::vector<StepTime> steps;                          // the parts of "fields", "delaunay and extraction", "volume mesh"
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)
+  std::string one_subcell_because;  // fields::DeviceFields: two subcells would not fit the device
   double band_voxels = 0;  // the indicator fields' band, as chosen
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "fields/cp_lookup_gpu.h"
+#include "fields/device_fields.h"
 #include "gpu_fixture.h"
 #include "ref/cp_lookup.h"
 #include "fields_volumes.h"
@@ -110,5 +111,30 @@ TEST_CASE_FIXTURE(GpuFixture, "GPU closest point lookup matches the reference: w
   CHECK_NOTHROW(fields::GpuEmbedding::check_fits(ctx, E.block_count(), E.sub, chunk));
   CHECK_THROWS_WITH_AS(fields::GpuEmbedding::check_fits(ctx, E.block_count(), E.sub, chunk / 4),
                        doctest::Contains((std::to_string(E.block_count()) + " blocks").c_str()), gpu::Error);
-  CHECK_NOTHROW(fields::with_device_limits({}, ctx).embedding.check_blocks(E.block_count(), E.sub));
+}
+
+TEST_CASE_FIXTURE(GpuFixture, "device fields: one subcell where two would not fit the bindings, an error where one does not") {
+  const auto wb = test::make_volume(io::SynthShape::wedge_ball, 32);
+  io::LabelVolume volume;
+  volume.dims = {32, 32, 32};
+  volume.spacing = {1, 1, 1};
+  volume.labels = wb.labels;
+  volume.source = "wb32.nrrd";
+  const auto two = fields::build_device_fields(ctx, volume, {});
+  REQUIRE(two.fields.embedding.sub == 2);
+  CHECK(two.one_subcell_because.empty());
+  const size_t blocks = two.fields.embedding.block_count();
+  // Chunks of 8 x blocks bytes: 4 of them hold blocks / 4 blocks of two subcells, 2 x blocks of one.
+  const auto one = fields::build_device_fields(ctx, volume, {}, 8 * blocks);
+  CHECK(one.fields.embedding.sub == 1);
+  CHECK(one.fields.fields.band > two.fields.fields.band);  // one subcell needs a deeper band (embedding_indicator_band)
+  // The refusal of two, from the curve pass's count (within 2% of the final one).
+  CHECK(doctest::String(one.one_subcell_because.c_str()) == doctest::Contains("binds at most 4 x"));
+  // Where the subcells are fixed, or one does not fit either: an error naming the volume, before the fine points.
+  fields::FieldsOptions fixed;
+  fixed.embedding.sub = 2;
+  CHECK_THROWS_WITH_AS(fields::build_device_fields(ctx, volume, fixed, 8 * blocks), doctest::Contains("wb32.nrrd: "),
+                       fields::EmbeddingTooLarge);
+  CHECK_THROWS_WITH_AS(fields::build_device_fields(ctx, volume, {}, 64), doctest::Contains("wb32.nrrd: "),
+                       fields::EmbeddingTooLarge);
 }

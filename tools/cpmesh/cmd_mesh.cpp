@@ -156,9 +156,6 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               } catch (const mesh::ParticleBudgetError& e) {
                 if (line_open) std::fputc('\n', stderr);  // the error goes on a line of its own
                 throw std::runtime_error(o->input.path + ": " + e.what());
-              } catch (const gpu::Error& e) {  // a device limit the volume's embedding exceeds, or the device itself
-                if (line_open) std::fputc('\n', stderr);
-                throw std::runtime_error(o->input.path + ": " + e.what());
               } catch (...) {
                 if (line_open) std::fputc('\n', stderr);
                 throw;
@@ -202,6 +199,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["seconds"]["write"] = write_seconds;
             j["steps"] = nlohmann::json::object();  // parts of a stage: {"fields": {"indicator fields": s, ...}, ...}
             for (const auto& step : rep.steps) j["steps"][step.stage][step.step] = step.seconds;
+            j["embedding"] = {{"subcells", rep.subcells}, {"one_subcell_because", rep.one_subcell_because}};
             j["particles"] = rep.particles;
             j["iterations"] = rep.iterations;
             j["rounds"] = rep.rounds;

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "fields/cp_lookup_gpu.h"
+#include "fields/device_fields.h"
 #include "fields/fields_stage.h"
 #include "fields/volume_grid.h"
 #include "gpu/describe.h"
@@ -82,13 +82,11 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   return {sub, [o, &g] {
             Progress progress(5);
             io::LabelVolume input = progress.stage("read volume", [&] { return read_volume_input(o->input); });
-            const double padding = fields::face_padding(o->fields, input);
-            const io::LabelVolume volume = fields::close_at_faces(std::move(input), padding);
-            const fields::Grid grid = fields::grid_of(volume);
             gpu::Context ctx(g.context());
-            const auto F = progress.stage("fields", [&] {
-              return fields::build_fields(grid, volume.labels.data(), fields::with_device_limits(o->fields, ctx));
-            });
+            const auto device_fields = progress.stage("fields", [&] { return fields::build_device_fields(ctx, input, o->fields); });
+            const io::LabelVolume& volume = device_fields.volume;
+            const fields::Grid grid = fields::grid_of(volume);
+            const auto& F = device_fields.fields;
             particles::SeedStats seeded;
             const auto seeds = progress.stage("seeding", [&] {
               return particles::seed_population(F.embedding, o->population, &seeded, o->grid_seeding);
