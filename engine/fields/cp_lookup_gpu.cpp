@@ -66,10 +66,12 @@ int64_t EmbeddingTiles::find_block(const glm::ivec3& cell, uint32_t feature) con
 
 uint32_t GpuEmbedding::chunk_blocks_for(const gpu::Context& ctx, int sub, uint64_t max_chunk_bytes) {
   const uint64_t block_bytes = uint64_t(sub * sub * sub) * sizeof(glm::vec4);
-  // A chunk is a buffer (within maxStorageBufferRange) bound as a texel buffer (within maxTexelBufferElements).
-  const uint64_t limit = max_chunk_bytes ? max_chunk_bytes
-                                         : std::min(ctx.info().max_storage_buffer_range,
-                                                    ctx.info().max_texel_buffer_elements * sizeof(glm::vec4));
+  // A chunk is a buffer bound only as a texel buffer (gpu::MemoryUse::texels): within maxTexelBufferElements texels
+  // and one allocation, not maxStorageBufferRange.
+  const auto& d = ctx.info();
+  uint64_t limit = d.max_texel_buffer_elements * sizeof(glm::vec4);
+  if (d.max_memory_allocation_size) limit = std::min(limit, d.max_memory_allocation_size);
+  if (max_chunk_bytes) limit = max_chunk_bytes;
   return uint32_t(std::max<uint64_t>(1, limit / block_bytes));
 }
 
@@ -89,11 +91,13 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
   const size_t total_blocks = E.block_count();
   check_fits(ctx, total_blocks, E.sub, max_chunk_bytes);
   const EmbeddingTiles T = build_embedding_tiles(E);
-  tile_keys = gpu::Buffer<uint64_t>(ctx, T.keys, "embedding tile keys");
-  tiles = gpu::Buffer<uint32_t>(ctx, T.tiles, "embedding tiles");
+  // Every buffer of the embedding is read as texels only (shaders/shared/cp_lookup.glsl).
+  constexpr auto texels = gpu::MemoryUse::texels;
+  tile_keys = gpu::Buffer<uint64_t>(ctx, T.keys, "embedding tile keys", texels);
+  tiles = gpu::Buffer<uint32_t>(ctx, T.tiles, "embedding tiles", texels);
   // An empty embedding still binds one (empty) cell.
   const std::vector<uint32_t> cells = T.cells.empty() ? std::vector<uint32_t>(1, EmbeddingTiles::kNoBlock) : T.cells;
-  tile_cells = gpu::Buffer<uint32_t>(ctx, cells, "embedding tile cells");
+  tile_cells = gpu::Buffer<uint32_t>(ctx, cells, "embedding tile cells", texels);
   table_mask = uint32_t(T.keys.size() - 1);
   chunk_blocks = chunk_blocks_for(ctx, E.sub, max_chunk_bytes);
   chunks = uint32_t(std::max<size_t>(1, (total_blocks + chunk_blocks - 1) / chunk_blocks));
@@ -103,7 +107,7 @@ GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, ui
     const size_t last = std::min(total_blocks, size_t(c + 1) * chunk_blocks);
     fine[size_t(c)] = gpu::Buffer<glm::vec4>(
         ctx, std::span<const glm::vec4>(E.fine.data() + first * per_block, (last - first) * per_block),
-        "embedding fine points " + std::to_string(c));
+        "embedding fine points " + std::to_string(c), texels);
   }
 }
 

@@ -14,14 +14,17 @@ std::string mib(uint64_t bytes) {
   return s;
 }
 
-void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
+void check_size(const Context& ctx, const std::string& label, uint64_t bytes, MemoryUse use) {
   const auto& d = ctx.info();
   auto fail = [&](const char* limit_name, uint64_t limit) {
     throw Error("buffer '" + label + "' needs " + std::to_string(bytes) + " bytes (" + mib(bytes) + "), more than " +
                 limit_name + " = " + std::to_string(limit) + " bytes (" + mib(limit) + ") on " + d.name +
                 "; reduce the problem size or pick a device with larger limits (`cpmesh devices`)");
   };
-  if (bytes > d.max_storage_buffer_range) fail("maxStorageBufferRange", d.max_storage_buffer_range);
+  if ((use == MemoryUse::device || use == MemoryUse::readback) && bytes > d.max_storage_buffer_range)
+    fail("maxStorageBufferRange", d.max_storage_buffer_range);
+  if (use == MemoryUse::texels && (bytes + 15) / 16 > d.max_texel_buffer_elements)
+    fail("maxTexelBufferElements x 16", d.max_texel_buffer_elements * 16);
   if (d.max_memory_allocation_size && bytes > d.max_memory_allocation_size)
     fail("maxMemoryAllocationSize", d.max_memory_allocation_size);
   uint64_t largest_heap = 0;
@@ -33,9 +36,9 @@ void check_size(const Context& ctx, const std::string& label, uint64_t bytes) {
 // The VkBuffer's size for `bytes`: at least 16 (Vulkan forbids empty buffers; an empty Buffer still owns a small one
 // so that it can be bound), in whole 16-byte texels so that a texel view covers every byte, unless that would pass
 // maxStorageBufferRange (then the last partial texel is not in the view).
-uint64_t vk_buffer_size(const Context& ctx, uint64_t bytes) {
+uint64_t vk_buffer_size(const Context& ctx, uint64_t bytes, MemoryUse use) {
   const uint64_t whole = (bytes + 15) / 16 * 16;
-  return std::max<uint64_t>(whole <= ctx.info().max_storage_buffer_range ? whole : bytes, 16);
+  return std::max<uint64_t>(use == MemoryUse::texels || whole <= ctx.info().max_storage_buffer_range ? whole : bytes, 16);
 }
 
 }  // namespace
@@ -43,7 +46,7 @@ uint64_t vk_buffer_size(const Context& ctx, uint64_t bytes) {
 const vk::raii::BufferView& detail::BufferStorage::texel_view(bool uint_texels) {
   vk::raii::BufferView& view = uint_texels ? uint_view : float_view;
   if (*view) return view;
-  const uint64_t texels = vk_buffer_size(*ctx, bytes) / 16;
+  const uint64_t texels = vk_buffer_size(*ctx, bytes, MemoryUse(use)) / 16;
   const uint64_t limit = ctx->info().max_texel_buffer_elements;
   if (texels > limit)
     throw Error("buffer '" + label + "' bound as a texel buffer holds " + std::to_string(texels) +
@@ -73,7 +76,7 @@ detail::BufferStorage::~BufferStorage() {
 }
 
 BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUse use) {
-  check_size(ctx, label, bytes);
+  check_size(ctx, label, bytes, use);
   auto s = std::make_shared<detail::BufferStorage>();
   s->label = std::move(label);
   s->bytes = bytes;
@@ -93,7 +96,7 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
   }
   guarded("creating buffer '" + s->label + "' of " + std::to_string(bytes) + " bytes", [&] {
     using U = vk::BufferUsageFlagBits;
-    const uint64_t alloc_bytes = vk_buffer_size(ctx, bytes);
+    const uint64_t alloc_bytes = vk_buffer_size(ctx, bytes, use);
     s->buffer = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo({}, alloc_bytes,
                                                                     U::eStorageBuffer | U::eUniformTexelBuffer |
                                                                         U::eTransferSrc | U::eTransferDst |
@@ -101,7 +104,8 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     const auto req = s->buffer.getMemoryRequirements();
     using M = vk::MemoryPropertyFlagBits;
     uint32_t type = 0;
-    if (use == MemoryUse::readback)
+    const bool host_side = use == MemoryUse::readback || use == MemoryUse::staging;
+    if (host_side)
       type = ctx.memory_type(req.memoryTypeBits, M::eHostVisible | M::eHostCoherent, M::eHostCached);
     else if (ctx.unified_memory())
       type = ctx.memory_type(req.memoryTypeBits, M::eDeviceLocal, M::eHostVisible | M::eHostCoherent | M::eHostCached);
@@ -119,7 +123,7 @@ BufferBase::BufferBase(Context& ctx, uint64_t bytes, std::string label, MemoryUs
     // Device buffers are mapped only where the host reads them at cache speed (unified memory, above); elsewhere
     // (a device-local type that is host-visible through an uncached BAR) they go through staging.
     const bool map = (flags & M::eHostVisible) && (flags & M::eHostCoherent) &&
-                     (use == MemoryUse::readback || (ctx.unified_memory() && (flags & M::eHostCached)));
+                     (host_side || (ctx.unified_memory() && (flags & M::eHostCached)));
     if (map) s->mapped = s->memory.mapMemory(0, VK_WHOLE_SIZE);
   });
   s_ = std::move(s);
@@ -134,7 +138,7 @@ void BufferBase::upload_bytes(const void* src, uint64_t bytes, uint64_t offset) 
     std::memcpy(static_cast<char*>(s_->mapped) + offset, src, bytes);
     return;
   }
-  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::readback);
+  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::staging);
   std::memcpy(staging.s_->mapped, src, bytes);
   submit_once(*s_->ctx, "uploading to buffer '" + s_->label + "'", [&](const vk::raii::CommandBuffer& cb) {
     cb.copyBuffer(staging.handle(), handle(), vk::BufferCopy(0, offset, bytes));
@@ -150,7 +154,7 @@ void BufferBase::download_bytes(void* dst, uint64_t bytes, uint64_t offset) cons
     std::memcpy(dst, static_cast<const char*>(s_->mapped) + offset, bytes);
     return;
   }
-  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::readback);
+  BufferBase staging(*s_->ctx, bytes, s_->label + " (staging)", MemoryUse::staging);
   submit_once(*s_->ctx, "downloading from buffer '" + s_->label + "'", [&](const vk::raii::CommandBuffer& cb) {
     cb.copyBuffer(handle(), staging.handle(), vk::BufferCopy(offset, 0, bytes));
   });

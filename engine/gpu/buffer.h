@@ -39,6 +39,9 @@ struct BufferStorage {
 enum class MemoryUse {
   device,    // device-local; host access through staging unless the device has unified memory
   readback,  // host-visible and cached: for small results the host reads every iteration
+  texels,    // as device, bound only as a texel buffer: up to maxTexelBufferElements 16-byte texels rather than
+             // maxStorageBufferRange bytes (Sequence refuses to bind a buffer beyond that range as a storage buffer)
+  staging,   // as readback, never bound: the host side of an upload or a download
 };
 
 class BufferBase {

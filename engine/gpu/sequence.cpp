@@ -67,6 +67,11 @@ void Sequence::bind(const Kernel& kernel, std::initializer_list<Binding> buffers
       if (type == vk::DescriptorType::eUniformTexelBuffer)
         writes.emplace_back(set, i, 0, 1, type, nullptr, nullptr,
                             &views.emplace_back(*b.storage->texel_view(L.uint_texels >> i & 1)));
+      else if (b.storage->bytes > ctx_->info().max_storage_buffer_range)
+        throw Error("buffer '" + b.storage->label + "' of " + std::to_string(b.storage->bytes) +
+                    " bytes is bound as a storage buffer, beyond maxStorageBufferRange = " +
+                    std::to_string(ctx_->info().max_storage_buffer_range) + " bytes on " + ctx_->info().name +
+                    " (a texel buffer may be larger)");
       else
         writes.emplace_back(set, i, 0, 1, type, nullptr, &infos.emplace_back(*b.storage->buffer, 0, VK_WHOLE_SIZE));
       held_buffers_.push_back(b.storage);

@@ -56,6 +56,27 @@ TEST_CASE_FIXTURE(GpuFixture, "a buffer larger than maxStorageBufferRange gets a
   }
 }
 
+TEST_CASE_FIXTURE(GpuFixture, "a texel-only buffer may pass maxStorageBufferRange, but is not bound as a storage buffer") {
+  // The closest point embedding's buffers (fields::GpuEmbedding) are read as texels only: their limit is
+  // maxTexelBufferElements texels.
+  const uint64_t range = ctx.info().max_storage_buffer_range;
+  if (ctx.info().max_texel_buffer_elements * 16 <= range) return;  // nothing to test on this device
+  const size_t count = size_t(range / 4 + 4);
+  gpu::Buffer<uint32_t> wide(ctx, count, "wide", gpu::MemoryUse::texels);
+  const std::vector<uint32_t> tail = {1, 2, 3, 4};
+  wide.upload(tail, count - 4);
+  CHECK(wide.download(count - 4, 4) == tail);
+  CHECK_NOTHROW(wide.storage()->texel_view(true));
+  gpu::Kernel add(ctx, shaders::scan_add);
+  gpu::Buffer<uint32_t> b(ctx, 16, "b");
+  gpu::Sequence seq(ctx);
+  const struct { uint32_t n; } push{16};
+  CHECK_THROWS_WITH_AS(seq.dispatch(add, {wide, b}, push, 16), doctest::Contains("'wide'"), gpu::Error);
+  CHECK_THROWS_WITH_AS(gpu::Buffer<uint32_t>(ctx, size_t(ctx.info().max_texel_buffer_elements * 4 + 1), "wider",
+                                             gpu::MemoryUse::texels),
+                       doctest::Contains("maxTexelBufferElements"), gpu::Error);
+}
+
 TEST_CASE_FIXTURE(GpuFixture, "device memory is accounted; released buffers are recycled, then freed oldest first") {
   const uint64_t n = (1u << 20) + 4099;  // a size no other test uses
   const uint64_t before = ctx.memory_stats().current_bytes, allocations = ctx.memory_stats().allocations;
