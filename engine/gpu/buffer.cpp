@@ -35,7 +35,7 @@ void check_size(const Context& ctx, const std::string& label, uint64_t bytes, Me
 
 // The VkBuffer's size for `bytes`: at least 16 (Vulkan forbids empty buffers; an empty Buffer still owns a small one
 // so that it can be bound), in whole 16-byte texels so that a texel view covers every byte, unless that would pass
-// maxStorageBufferRange (then the last partial texel is not in the view).
+// maxStorageBufferRange (then the last partial texel is not in the view); a texel-only buffer always in whole texels.
 uint64_t vk_buffer_size(const Context& ctx, uint64_t bytes, MemoryUse use) {
   const uint64_t whole = (bytes + 15) / 16 * 16;
   return std::max<uint64_t>(use == MemoryUse::texels || whole <= ctx.info().max_storage_buffer_range ? whole : bytes, 16);
