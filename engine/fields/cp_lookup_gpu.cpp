@@ -83,7 +83,7 @@ void GpuEmbedding::check_fits(const gpu::Context& ctx, size_t blocks, int sub, u
                      gpu::format_bytes(blocks * block_bytes) + "); " + ctx.info().name + " binds at most " +
                      std::to_string(kFineChunks) + " x " + gpu::format_bytes(uint64_t(per_chunk) * block_bytes) +
                      "; use fewer subcells (--subcells), a coarser volume, or a device with a larger "
-                     "maxStorageBufferRange and maxTexelBufferElements");
+                     "maxTexelBufferElements and maxMemoryAllocationSize");
 }
 
 GpuEmbedding::GpuEmbedding(gpu::Context& ctx, const ClosestPointEmbedding& E, uint64_t max_chunk_bytes)
