@@ -56,11 +56,9 @@ io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vecto
   return out;
 }
 
-void check_label_limit(const io::LabelVolume& v) {
-  std::vector<uint8_t> seen(65536);
-  size_t count = 0;
-  for (uint16_t l : v.labels) count += seen[l] ? 0 : (seen[l] = 1);
-  if (!seen[0]) ++count;  // the outside is label 0
+void check_label_limit(const io::LabelVolume& v, const LabelCensus& census) {
+  size_t count = census[0] > 0 ? 0 : 1;  // the outside is label 0
+  for (int64_t voxels : census) count += voxels > 0;
   if (count > kMaxMaterials)
     throw std::invalid_argument(v.source + ": " + std::to_string(count) + " materials (the labels and the outside, label 0); "
                                 "cpmesh supports at most " + std::to_string(kMaxMaterials) +
@@ -73,10 +71,11 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   MeshReport& rep = result.report;
   const io::LabelVolume selected = options.materials.empty() ? io::LabelVolume{} : select_materials(input, options.materials);
   const io::LabelVolume& chosen = options.materials.empty() ? input : selected;
-  rep.dropped_labels = small_labels(chosen, options.min_label_voxels);
+  const LabelCensus census = label_census(chosen);
+  rep.dropped_labels = small_labels(chosen, census, options.min_label_voxels);
   const io::LabelVolume merged = rep.dropped_labels.empty() ? io::LabelVolume{} : merge_labels(chosen, rep.dropped_labels);
   const io::LabelVolume& meshed = rep.dropped_labels.empty() ? chosen : merged;
-  check_label_limit(meshed);  // in a moment, not after the fields
+  check_label_limit(meshed, merge_labels(census, rep.dropped_labels));  // in a moment, not after the fields
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
   const int stage_count = options.only_surfaces ? 6 : 7;

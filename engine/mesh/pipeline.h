@@ -63,8 +63,9 @@ struct MeshOptions {
 
 // Materials (labels and the outside) a volume may have: material indices are 16-bit, below MaterialSet::kNone.
 constexpr size_t kMaxMaterials = fields::MaterialSet::kNone;
-// Throws std::invalid_argument naming the volume's source when it has more materials than that.
-void check_label_limit(const io::LabelVolume& volume);
+// Throws std::invalid_argument naming the volume's source when it has more materials than that (`census`: its
+// voxels per label, small_labels.h).
+void check_label_limit(const io::LabelVolume& volume, const LabelCensus& census);
 
 // The volume with options.materials applied (a copy); throws std::invalid_argument naming a missing label.
 io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups);

@@ -2,12 +2,18 @@
 
 #include <algorithm>
 #include <map>
+#include <stdexcept>
 
 namespace cpmesh::mesh {
 
-std::vector<DroppedLabel> small_labels(const io::LabelVolume& v, int64_t min_voxels) {
-  std::vector<int64_t> count(65536, 0);
-  for (uint16_t l : v.labels) ++count[l];
+LabelCensus label_census(const io::LabelVolume& volume) {
+  LabelCensus count(65536, 0);
+  for (uint16_t l : volume.labels) ++count[l];
+  return count;
+}
+
+std::vector<DroppedLabel> small_labels(const io::LabelVolume& v, const LabelCensus& count, int64_t min_voxels) {
+  if (count.size() != 65536) throw std::invalid_argument("small_labels: a census has 65536 entries");
   std::vector<uint8_t> small(65536, 0);
   for (size_t l = 1; l < count.size(); ++l) small[l] = count[l] > 0 && count[l] < min_voxels;
   std::vector<DroppedLabel> out;
@@ -55,6 +61,14 @@ io::LabelVolume merge_labels(const io::LabelVolume& volume, const std::vector<Dr
   for (const auto& d : dropped) map[d.label] = d.merged_into;
   for (auto& l : out.labels) l = map[l];
   return out;
+}
+
+LabelCensus merge_labels(LabelCensus census, const std::vector<DroppedLabel>& dropped) {
+  for (const auto& d : dropped) {
+    census[d.merged_into] += census[d.label];
+    census[d.label] = 0;
+  }
+  return census;
 }
 
 }  // namespace cpmesh::mesh

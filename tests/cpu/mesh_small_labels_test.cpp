@@ -41,6 +41,11 @@ TEST_CASE("small labels join the label they touch most, and are listed") {
   const auto merged = mesh::merge_labels(v, dropped);
   CHECK(merged.labels[merged.index(1, 1, 1)] == 1);
   CHECK(merged.labels[merged.index(4, 2, 2)] == 2);
+  // The census merged the same way counts the merged volume (the material limit reads it).
+  const mesh::LabelCensus census = mesh::merge_labels(mesh::label_census(v), dropped);
+  CHECK(census == mesh::label_census(merged));
+  CHECK(census[0] == 1);  // label 5 joined the outside
+  CHECK(census[7] == 0);
   CHECK(mesh::small_labels(v, 1).empty());
   CHECK(mesh::small_labels(v, 0).empty());
   CHECK(mesh::small_labels(v, 2).size() == 3);  // 9 has two voxels: kept

@@ -240,6 +240,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["runs"] = mesh::volume_runs_json(rep);
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
             j["volume_mesh"]["unsplit_because"] = rep.volume_unsplit_because;
+            j["volume_mesh"]["one_run_because"] = rep.volume_one_run_because;
             if (!rep.volume_error.empty()) j["volume_mesh_error"] = rep.volume_error;
             j["dropped_labels"] = nlohmann::json::array();
             for (const auto& d : rep.dropped_labels)
