@@ -18,6 +18,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "fields/distance_transform.h"
+#include "host/disjoint_sets.h"
 #include "host/host_array.h"
 
 namespace cpmesh::fields {
@@ -297,9 +298,9 @@ JunctionAngles junction_angles(const std::vector<CornerShares>& shares, const st
 // Adds the wedge-angle offset of one material near junctions to its field, and returns the offset as a sparse field
 // (0 elsewhere): the corners' offsets for this label, averaged with weights (1 - (d/R)^2)^2 over corners within
 // R = fade + 1.5 voxels, times a fade that is 1 within a voxel of a junction and 0 beyond fade + 1 voxel, and 0 where
-// the field is at the band's edge. Every voxel of the field keeps its sign (+-keep at least).
-BrickField add_junction_offset(uint16_t label, BrickField& field, double band, float keep,
-                               const std::vector<glm::ivec3>& corners, const JunctionAngles& angles,
+// the field is at the band's edge. Every voxel of the field keeps its sign (+-keep(voxel) at least).
+BrickField add_junction_offset(uint16_t label, BrickField& field, double band,
+                               const std::function<float(size_t)>& keep, const std::vector<glm::ivec3>& corners, const JunctionAngles& angles,
                                std::span<const float> junction_distance, const Grid& grid, double fade) {
   const double h = grid.min_spacing();
   const double radius = fade + 1.5 * h;
@@ -348,9 +349,55 @@ BrickField add_junction_offset(uint16_t label, BrickField& field, double band, f
       out.set(v.x, v.y, v.z, o);
       if (o == 0) continue;
       const float g = std::clamp(f + o, float(-band), float(band));
-      field.set(v.x, v.y, v.z, f > 0 ? std::max(g, keep) : std::min(g, -keep));
+      const float k = keep(grid.index(v.x, v.y, v.z));
+      field.set(v.x, v.y, v.z, f > 0 ? std::max(g, k) : std::min(g, -k));
     }
   }
+  return out;
+}
+
+// Per voxel: 1 where it is protected (protected_distance 0) and its label's face-connected component has at most
+// max_voxels voxels and one label around it across faces (an island in one material, or in the outside); empty when
+// none can be (max_voxels 0 or no thin parts measured).
+HostArray<uint8_t> thin_islands(const Grid& grid, const uint16_t* labels, std::span<const float> protected_distance,
+                                size_t max_voxels) {
+  if (max_voxels == 0 || protected_distance.empty()) return {};
+  const size_t n = grid.voxel_count();
+  DisjointSets sets(n);
+  const glm::ivec3 d = grid.dims;
+  tbb::parallel_for(tbb::blocked_range<int>(0, d.z), [&](const tbb::blocked_range<int>& r) {
+    for (int k = r.begin(); k < r.end(); ++k)
+      for (int j = 0; j < d.y; ++j)
+        for (int i = 0; i < d.x; ++i) {
+          const size_t v = grid.index(i, j, k);
+          if (i + 1 < d.x && labels[v] == labels[grid.index(i + 1, j, k)]) sets.join(uint32_t(v), uint32_t(grid.index(i + 1, j, k)));
+          if (j + 1 < d.y && labels[v] == labels[grid.index(i, j + 1, k)]) sets.join(uint32_t(v), uint32_t(grid.index(i, j + 1, k)));
+          if (k + 1 < d.z && labels[v] == labels[grid.index(i, j, k + 1)]) sets.join(uint32_t(v), uint32_t(grid.index(i, j, k + 1)));
+        }
+  });
+  // Per component (at its root): its voxels, and the label around it (kMixed: more than one; the outside is 0).
+  constexpr uint32_t kNone = 0xffffffffu, kMixed = 0xfffffffeu;
+  HostArray<uint32_t> size = filled(n, uint32_t(0)), around = filled(n, kNone);
+  for (int k = 0; k < d.z; ++k)
+    for (int j = 0; j < d.y; ++j)
+      for (int i = 0; i < d.x; ++i) {
+        const size_t v = grid.index(i, j, k);
+        const uint32_t root = sets.find(uint32_t(v));
+        ++size[root];
+        const glm::ivec3 q[6] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k}, {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
+        for (const glm::ivec3& w : q) {
+          const uint32_t other = grid.inside(w.x, w.y, w.z) ? labels[grid.index(w.x, w.y, w.z)] : 0u;
+          if (grid.inside(w.x, w.y, w.z) && other == labels[v]) continue;
+          around[root] = around[root] == kNone || around[root] == other ? other : kMixed;
+        }
+      }
+  HostArray<uint8_t> out = filled(n, uint8_t(0));
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      const uint32_t root = sets.find(uint32_t(v));
+      out[v] = protected_distance[v] == 0 && size[root] <= max_voxels && around[root] != kMixed;
+    }
+  });
   return out;
 }
 
@@ -505,7 +552,7 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
   // every material, so no neighbour grows into a protected part either.
   // The junction correction uses the same test (with r = 1 voxel if tightening is off): a layer a voxel or two thick
   // has junction corners wherever its staircase lets its two neighbours touch, and an offset there can cut it.
-  const double thin_r = tighten_r > 0 ? tighten_r : options.junction_correction > 0 ? h : 0.0;
+  const double thin_r = tighten_r > 0 ? tighten_r : options.junction_correction > 0 || options.island_margin > 0 ? h : 0.0;
   out.thin_radius = thin_r / h;
   HostArray<float> protected_distance;
   if (thin_r > 0) {
@@ -553,6 +600,11 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           ? junction_angles(corner_shares(grid, labels, junction_corners, protected_distance), junction_corner_labels,
                             options.junction_correction * h)
           : JunctionAngles{};
+  // How far from 0 every field must stay at a voxel centre, with the voxel's sign: island_margin at thin islands'
+  // voxels (docs/design.md, "Small islands"), a sign only elsewhere.
+  const HostArray<uint8_t> island = thin_islands(grid, labels, protected_distance, options.island_voxels);
+  const float keep_anywhere = float(1e-3 * h), keep_island = float(std::max(1e-3, options.island_margin) * h);
+  const auto keep = [&](size_t v) -> float { return !island.empty() && island[v] ? keep_island : keep_anywhere; };
   // Where the flow is allowed, in [0, 1]: away from junctions and protected thin parts.
   auto tighten_weight = [&](size_t v) {
     double w = 1;
@@ -600,7 +652,6 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
     // twicing of a narrower one, 2 G_j f - G_j G_j f: it removes the staircase as well, but rounds the wedge-shaped
     // edges of materials far less (at a kink, 0.33 voxel at sigma_j = 0.7 against 0.8 for sigma = 1), and it is that
     // rounding, unequal between a material's 90-degree edge and its neighbour's flat side, that moves triple curves.
-    const float keep = float(1e-3 * h);
     const bool twice = !junction_distance.empty() && options.junction_sigma > 0;
     HostArray<float> narrow, narrow2;
     auto blur = [&](std::span<float> f, double sigma) {
@@ -620,7 +671,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
             const double w = smoothstep01(std::sqrt(double(junction_distance[full_index(ci)])) / fade);
             phi[ci] = float(w * phi[ci] + (1 - w) * (2.0 * narrow[ci] - narrow2[ci]));
           }
-          phi[ci] = inside[ci] ? std::max(phi[ci], keep) : std::min(phi[ci], -keep);
+          const float k = keep(full_index(ci));
+          phi[ci] = inside[ci] ? std::max(phi[ci], k) : std::min(phi[ci], -k);
         }
       });
     }
@@ -651,7 +703,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
         for (size_t ci = r.begin(); ci < r.end(); ++ci) {
           const double w = twice ? smoothstep01(std::sqrt(double(junction_distance[full_index(ci)])) / fade) : 1.0;
           const double v = std::clamp(phi[ci] - 0.5 * variance * w * lap[ci], -double(band), double(band));
-          phi[ci] = float(inside[ci] ? std::max(v, double(keep)) : std::min(v, -double(keep)));
+          const double k = keep(full_index(ci));
+          phi[ci] = float(inside[ci] ? std::max(v, k) : std::min(v, -k));
         }
       });
     }

@@ -178,10 +178,11 @@ TEST_CASE("automatic resolution: one fine point per voxel where the size floor i
     FieldsOptions shallow = unit;
     shallow.indicator.band = 4;
     CHECK(build_fields(ball.grid, ball.labels.data(), shallow).embedding.sub == 2);
-    // Thin parts not measured (no tightening, no junction correction): they count as everywhere.
+    // Thin parts not measured (no tightening, junction correction or island margin): they count as everywhere.
     FieldsOptions unmeasured = unit;
     unmeasured.indicator.tighten_radius = 0;
     unmeasured.indicator.junction_correction = 0;
+    unmeasured.indicator.island_margin = 0;
     const auto fu = build_fields(slabs.grid, slabs.labels.data(), unmeasured);
     CHECK(fu.report.thin_share == 1.0);
     CHECK(fu.embedding.sub == 2);

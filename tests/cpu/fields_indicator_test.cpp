@@ -356,3 +356,41 @@ TEST_CASE("cubic samples of several fields agree with a plain Catmull-Rom of the
   CHECK(c.brick_values(glm::ivec3(0)) == nullptr);
   CHECK(c.brick_constant(glm::ivec3(0)) == 0.0f);
 }
+
+TEST_CASE("a small island's fields keep island_margin from 0 at its voxel centres; a layer's are left alone") {
+  // A 2 x 2 x 1 island of label 3 inside label 1. The first Gaussian pass takes its fields near 0 at its voxel
+  // centres; held at the margin there, the island comes out of the smoothing rounder, and its mesh in the islands
+  // corpus volume is no flat double layer of slivers (docs/corpus.md).
+  Grid g{{16, 16, 16}, {1, 1, 1}, {0, 0, 0}};
+  std::vector<uint16_t> labels(g.voxel_count(), 1);
+  for (int j = 7; j < 9; ++j)
+    for (int i = 7; i < 9; ++i) labels[g.index(i, j, 8)] = 3;
+  struct Island {
+    double centre, below, above;  // the island's field at a voxel centre; its faces on the line through its middle
+  };
+  auto island = [&](const IndicatorOptions& options) {
+    const auto fields = build_indicator_fields(g, labels.data(), options);
+    REQUIRE(fields.labels == std::vector<uint16_t>{1, 3});
+    auto d = [&](double z) { return fields.fields[1].sample_cubic({7.5, 7.5, z}) - fields.fields[0].sample_cubic({7.5, 7.5, z}); };
+    REQUIRE(d(8.0) > 0);
+    return Island{fields.fields[1].at(7, 7, 8), bisect(d, 6.5, 8.0), bisect(d, 8.0, 9.5)};
+  };
+  IndicatorOptions plain, margin;
+  plain.island_margin = 0;
+  margin.island_margin = 0.4;
+  const Island without = island(plain), with = island(margin);
+  MESSAGE("island field at a centre " << without.centre << " -> " << with.centre << ", faces at z = " << without.below
+                                      << ", " << without.above << " -> " << with.below << ", " << with.above);
+  CHECK(with.centre > without.centre + 0.2);
+  CHECK(with.above - with.below > without.above - without.below);
+  CHECK(with.above - with.below < 1.6);  // the voxel is 1 thick: rounder, not much larger
+  CHECK(with.below + with.above == doctest::Approx(16.0).epsilon(0.01));
+  // A one-voxel layer across the volume is no island: the margin leaves its fields as they are.
+  std::vector<uint16_t> layer(g.voxel_count(), 1);
+  for (int j = 0; j < 16; ++j)
+    for (int i = 0; i < 16; ++i) layer[g.index(i, j, 8)] = 3;
+  const auto layer_with = build_indicator_fields(g, layer.data(), margin);
+  const auto layer_without = build_indicator_fields(g, layer.data(), plain);
+  for (double z = 6; z <= 10; z += 0.25)
+    CHECK(layer_with.fields[1].sample_cubic({7.3, 6.6, z}) == layer_without.fields[1].sample_cubic({7.3, 6.6, z}));
+}

@@ -45,6 +45,12 @@ void add_fields_options(CLI::App* sub, fields::FieldsOptions& f) {
                   "they are (0: off)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub->add_option("--island-margin", f.indicator.island_margin,
+                  "At the voxels of islands (thin parts of at most 64 voxels, face-connected), every material's field "
+                  "keeps at least this many voxels from 0, so the smoothing cannot flatten them into slivers "
+                  "(0: the sign only)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.49));
   sub->add_flag("!--no-curvature-correction", f.indicator.curvature_correction,
                 "Keep the smoothing's shrinkage of curved surfaces (by sigma^2 x mean curvature; corrected by default)");
   sub->add_option("--junction-correction", f.indicator.junction_correction,
