@@ -602,7 +602,8 @@ IndicatorFields build_indicator_fields(const Grid& grid, const uint16_t* labels,
           : JunctionAngles{};
   // How far from 0 every field must stay at a voxel centre, with the voxel's sign: island_margin at thin islands'
   // voxels (docs/design.md, "Small islands"), a sign only elsewhere.
-  const HostArray<uint8_t> island = thin_islands(grid, labels, protected_distance, options.island_voxels);
+  const HostArray<uint8_t> island =
+      options.island_margin > 0 ? thin_islands(grid, labels, protected_distance, options.island_voxels) : HostArray<uint8_t>{};
   const float keep_anywhere = float(1e-3 * h), keep_island = float(std::max(1e-3, options.island_margin) * h);
   const auto keep = [&](size_t v) -> float { return !island.empty() && island[v] ? keep_island : keep_anywhere; };
   // Where the flow is allowed, in [0, 1]: away from junctions and protected thin parts.
