@@ -20,6 +20,7 @@
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
 #include "mesh/smooth.h"
+#include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
 #include "ref/cp_lookup.h"
 
@@ -30,6 +31,95 @@ namespace {
 // 48^3 wedge ball the farthest particle lies 0.007 h off; on the 160^3 head proxy 99% lie within 0.017 h, and 0.5%
 // from 0.05 h to hundreds of h (where both of an interface's fields are clamped at the band's depth).
 constexpr double kOffFeatureShare = 0.25;
+
+// The interfaces' quality and topology (report fields surface, junction_triangles, other_triangles,
+// crossing_triangles, interfaces, materials and their counts) from the interface mesh as it is now.
+void interface_quality(const InterfaceMesh& I, const std::vector<uint8_t>& kind, const std::vector<uint16_t>& labels,
+                       MeshReport& rep) {
+  rep.interfaces.clear();
+  rep.materials.clear();
+  rep.interfaces_manifold = rep.materials_closed = 0;
+  std::vector<uint8_t> on_curve(kind.size());
+  for (size_t v = 0; v < kind.size(); ++v) on_curve[v] = kind[v] != uint8_t(fields::FeatureKind::interface);
+  // The interfaces (material pairs, in order) and each triangle's: radius-ratio sums per interface and per side of
+  // the junctions (a triangle with a curve or point vertex) in one pass, every edge check in one sort.
+  std::vector<std::array<uint16_t, 2>> pairs(I.pair.begin(), I.pair.end());
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<uint32_t> pair_index(I.triangles.size()), sums_group(I.triangles.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, I.triangles.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const auto& tri = I.triangles[i];
+      pair_index[i] = uint32_t(std::lower_bound(pairs.begin(), pairs.end(), I.pair[i]) - pairs.begin());
+      sums_group[i] = 2 * pair_index[i] + uint32_t(on_curve[tri[0]] || on_curve[tri[1]] || on_curve[tri[2]]);
+    }
+  });
+  const std::vector<TriangleSums> sums = triangle_sums_by_group(I.vertices, I.triangles, sums_group, 2 * pairs.size());
+  TriangleSums all, at_junction, away;
+  for (size_t g = 0; g < pairs.size(); ++g) {
+    away += sums[2 * g];
+    at_junction += sums[2 * g + 1];
+  }
+  all += away;
+  all += at_junction;
+  rep.surface = all.stats();
+  rep.junction_triangles = at_junction.stats();
+  rep.other_triangles = away.stats();
+  rep.crossing_triangles = crossing_triangles(I.vertices, I.triangles).size();
+  const EdgeChecks edges = check_edges(I.triangles, pair_index, pairs, labels.size(), on_curve);
+  for (size_t g = 0; g < pairs.size(); ++g) {
+    InterfaceReport ir;
+    ir.labels = {labels[pairs[g][0]], labels[pairs[g][1]]};
+    TriangleSums both = sums[2 * g];
+    both += sums[2 * g + 1];
+    ir.quality = both.stats();
+    ir.check = edges.interfaces[g];
+    rep.interfaces_manifold += ir.check.manifold();
+    rep.interfaces.push_back(ir);
+  }
+  for (size_t m = 0; m < labels.size(); ++m) {
+    MaterialReport mr;
+    mr.label = labels[m];
+    for (size_t g = 0; g < pairs.size(); ++g)
+      if (pairs[g][0] == m || pairs[g][1] == m) mr.boundary_triangles += sums[2 * g].triangles + sums[2 * g + 1].triangles;
+    mr.odd_edges = edges.odd_edges[m];
+    rep.materials_closed += mr.odd_edges == 0;
+    rep.materials.push_back(mr);
+  }
+}
+
+std::vector<std::array<double, 3>> physical_vertices(const fields::Grid& grid, const std::vector<glm::dvec3>& local) {
+  std::vector<std::array<double, 3>> out(local.size());
+  for (size_t v = 0; v < local.size(); ++v) {
+    const glm::dvec3 q = grid.to_physical(local[v]);
+    out[v] = {q.x, q.y, q.z};
+  }
+  return out;
+}
+
+// surface_slivers.h over the volume mesh V, the interface vertices (the first points of V, those of I) moving on their
+// interfaces by the fields' projection (smooth.h onto_feature); I takes their new positions.
+SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const std::vector<uint32_t>& vertex_feature,
+                                         const std::vector<uint8_t>& kind, const QualityOptions& options,
+                                         InterfaceMesh& I, Tets& V) {
+  std::vector<uint8_t> movable(I.vertices.size());
+  for (size_t v = 0; v < movable.size(); ++v)
+    movable[v] = kind[v] == uint8_t(fields::FeatureKind::interface) ? 1 : kind[v] == uint8_t(fields::FeatureKind::triple_curve) ? 2 : 0;
+  const FeatureProjection project = [&](uint32_t v, const glm::dvec3& near, glm::dvec3& on) {
+    return onto_feature(F.fields, F.embedding, vertex_feature[v], near, V.points[v], on);
+  };
+  SurfaceSliverReport r = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, options.min_dihedral,
+                                                options.max_radius_edge);
+  if (r.moves > 0 && r.slivers_after > 0) {  // the inner vertices around the moved ones may find better places now
+    improve_tets(V.points, V.tets, I.vertices.size(), options.min_dihedral, options.max_radius_edge);
+    const SurfaceSliverReport again = move_surface_vertices(V.points, V.tets, I.triangles, movable, project,
+                                                            options.min_dihedral, options.max_radius_edge);
+    r.moves += again.moves;
+    r.slivers_after = again.slivers_after;
+  }
+  if (r.moves > 0) std::copy_n(V.points.begin(), I.vertices.size(), I.vertices.begin());
+  return r;
+}
 }  // namespace
 
 io::LabelVolume select_materials(const io::LabelVolume& volume, const std::vector<std::vector<uint16_t>>& groups) {
@@ -324,58 +414,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   stage_done(count(smoothed.moves) + " vertex moves");
 
   begin("quality");
-  std::vector<uint8_t> on_curve(kind.size());
-  for (size_t v = 0; v < kind.size(); ++v) on_curve[v] = kind[v] != uint8_t(fields::FeatureKind::interface);
-  // The interfaces (material pairs, in order) and each triangle's: radius-ratio sums per interface and per side of
-  // the junctions (a triangle with a curve or point vertex) in one pass, every edge check in one sort.
-  std::vector<std::array<uint16_t, 2>> pairs(I.pair.begin(), I.pair.end());
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::vector<uint32_t> pair_index(I.triangles.size()), sums_group(I.triangles.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, I.triangles.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
-      const auto& tri = I.triangles[i];
-      pair_index[i] = uint32_t(std::lower_bound(pairs.begin(), pairs.end(), I.pair[i]) - pairs.begin());
-      sums_group[i] = 2 * pair_index[i] + uint32_t(on_curve[tri[0]] || on_curve[tri[1]] || on_curve[tri[2]]);
-    }
-  });
-  const std::vector<TriangleSums> sums = triangle_sums_by_group(I.vertices, I.triangles, sums_group, 2 * pairs.size());
-  TriangleSums all, at_junction, away;
-  for (size_t g = 0; g < pairs.size(); ++g) {
-    away += sums[2 * g];
-    at_junction += sums[2 * g + 1];
-  }
-  all += away;
-  all += at_junction;
-  rep.surface = all.stats();
-  rep.junction_triangles = at_junction.stats();
-  rep.other_triangles = away.stats();
-  rep.crossing_triangles = crossing_triangles(I.vertices, I.triangles).size();
-  const EdgeChecks edges = check_edges(I.triangles, pair_index, pairs, labels.size(), on_curve);
-  for (size_t g = 0; g < pairs.size(); ++g) {
-    InterfaceReport ir;
-    ir.labels = {labels[pairs[g][0]], labels[pairs[g][1]]};
-    TriangleSums both = sums[2 * g];
-    both += sums[2 * g + 1];
-    ir.quality = both.stats();
-    ir.check = edges.interfaces[g];
-    rep.interfaces_manifold += ir.check.manifold();
-    rep.interfaces.push_back(ir);
-  }
-  for (size_t m = 0; m < labels.size(); ++m) {
-    MaterialReport mr;
-    mr.label = labels[m];
-    for (size_t g = 0; g < pairs.size(); ++g)
-      if (pairs[g][0] == m || pairs[g][1] == m) mr.boundary_triangles += sums[2 * g].triangles + sums[2 * g + 1].triangles;
-    mr.odd_edges = edges.odd_edges[m];
-    rep.materials_closed += mr.odd_edges == 0;
-    rep.materials.push_back(mr);
-  }
+  interface_quality(I, kind, labels, rep);
   // Outputs in physical units (part of this stage's time).
-  for (const auto& p : I.vertices) {
-    const glm::dvec3 q = grid.to_physical(p);
-    result.surfaces.vertices.push_back({q.x, q.y, q.z});
-  }
+  result.surfaces.vertices = physical_vertices(grid, I.vertices);
   result.surfaces.triangles = I.triangles;
   for (const auto& pr : I.pair) result.surfaces.triangle_pair.push_back({labels[pr[0]], labels[pr[1]]});
   result.surfaces.vertex_feature = kind;
@@ -403,9 +444,16 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.steps.push_back({"volume mesh", "region seeds", std::chrono::duration<double>(clock::now() - volume_start).count()});
     try {
       MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
+      rep.surface_slivers = mend_surface_slivers(F, vertex_feature, kind, options.volume, I, meshes.tets);
+      if (rep.surface_slivers.moves > 0) {  // the interfaces moved with the tets: their figures and output too
+        interface_quality(I, kind, labels, rep);
+        result.surfaces.vertices = result.particles.vertices = physical_vertices(grid, I.vertices);
+      }
       const auto output_start = clock::now();
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
+      if (rep.surface_slivers.moves > 0)
+        rep.sliver_split.failed = count_below_dihedral(meshes.tets.points, meshes.tets.tets, options.volume.min_dihedral);
       rep.volume_one_run_because = meshes.one_run_because;
       rep.volume_runs = meshes.runs;
       rep.volume_unsplit_because = meshes.unsplit_because;

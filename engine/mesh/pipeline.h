@@ -33,6 +33,7 @@
 #include "mesh/quality.h"
 #include "mesh/small_labels.h"
 #include "mesh/smooth.h"
+#include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
 #include "mesh/tetgen.h"
 #include "particles/population.h"
@@ -124,6 +125,7 @@ struct MeshReport {
   TetStats volume;           // the whole volume mesh
   TetImproveReport tet_improvement;  // the sliver passes after TetGen (smooth.h improve_tets, both runs)
   SliverSplitReport sliver_split;    // slivers flipped away or refilled around a new vertex (smooth.h split_slivers)
+  SurfaceSliverReport surface_slivers;  // slivers mended by moving interface vertices (surface_slivers.h)
   std::string volume_error;  // why the volume mesh was not made (empty: made, or not asked)
   std::string volume_one_run_because;  // not empty: why the materials were meshed in one run (volume_mesh.h)
   std::vector<MaterialRunTiming> volume_runs;  // time of each TetGen run and its sliver passes (volume_mesh.h)

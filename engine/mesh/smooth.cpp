@@ -77,6 +77,16 @@ size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<st
 
 }  // namespace
 
+bool onto_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E, uint32_t feature,
+                  const glm::dvec3& near, const glm::dvec3& start, glm::dvec3& on) {
+  const auto cp = ref::cp_lookup(E, glm::vec3(near), feature);
+  if (cp.valid) {
+    on = glm::dvec3(glm::vec3(cp.value));
+    return true;
+  }
+  return fields::project_to_feature(fields, E.features[feature], near, on, 30, 3, &start);
+}
+
 SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
                                const std::vector<uint32_t>& vertex_feature, InterfaceMesh& mesh,
                                const SmoothOptions& options) {
@@ -165,13 +175,8 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
           continue;  // quadruple points, and curve vertices whose curve neighbours are not a clean pair
         }
         const glm::dvec3 moved = V[v] + options.step * (target - V[v]);
-        const auto cp = ref::cp_lookup(E, glm::vec3(moved), vertex_feature[v]);
         glm::dvec3 foot;
-        if (cp.valid) {
-          foot = glm::dvec3(glm::vec3(cp.value));
-        } else if (!fields::project_to_feature(fields, E.features[vertex_feature[v]], moved, foot, 30, 3, &V[v])) {
-          continue;
-        }
+        if (!onto_feature(fields, E, vertex_feature[v], moved, V[v], foot)) continue;
         proposal[v] = foot;
         has[v] = 1;
       }

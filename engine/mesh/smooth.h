@@ -33,6 +33,11 @@ struct SmoothReport {
   size_t refused = 0;   // moves undone (a flip, a worse triangle, or a projection that did not converge)
 };
 
+// `near` put on embedding feature `feature` of the smooth fields: the embedding's closest point where its lookup is
+// valid there, else the Newton projection started from `start` (a point on the feature). False where neither gives one.
+bool onto_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding, uint32_t feature,
+                  const glm::dvec3& near, const glm::dvec3& start, glm::dvec3& on);
+
 // vertex_feature[v]: the embedding feature of vertex v (interface, triple curve or quadruple point).
 SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
                                const std::vector<uint32_t>& vertex_feature, InterfaceMesh& mesh,

@@ -236,6 +236,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["sliver_flips"] = rep.sliver_split.flips;
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
             j["volume_mesh"]["sliver_cavities_remeshed"] = rep.sliver_split.remeshed;
+            j["volume_mesh"]["interface_vertex_moves"] = rep.surface_slivers.moves;
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
             j["volume_mesh"]["runs"] = mesh::volume_runs_json(rep);
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
@@ -292,12 +293,13 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty()) {
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
-                            "moves, %zu flips, %zu splits, %zu cavities remeshed; %zu tets left below the bound), "
+                            "moves, %zu flips, %zu splits, %zu cavities remeshed, %zu interface vertex moves; %zu tets left below "
+                            "the bound), "
                             "radius-edge max %.2f\n",
                             rep.volume.tets, rep.volume.min_dihedral_deg, rep.volume.max_dihedral_deg,
                             rep.tet_improvement.min_dihedral_before, rep.tet_improvement.moves,
                             rep.sliver_split.flips, rep.sliver_split.inserted, rep.sliver_split.remeshed,
-                            rep.sliver_split.failed, rep.volume.max_radius_edge);
+                            rep.surface_slivers.moves, rep.sliver_split.failed, rep.volume.max_radius_edge);
                 if (rep.volume.worst_tet != SIZE_MAX)
                   std::printf("  smallest dihedral angle %.3g deg: tet %zu, centroid (%.4g, %.4g, %.4g)\n",
                               rep.volume.min_dihedral_deg, rep.volume.worst_tet, rep.volume.worst_centroid.x,
