@@ -444,11 +444,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     rep.steps.push_back({"volume mesh", "region seeds", std::chrono::duration<double>(clock::now() - volume_start).count()});
     try {
       MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
+      const auto moves_start = clock::now();
       rep.surface_slivers = mend_surface_slivers(F, vertex_feature, kind, options.volume, I, meshes.tets);
       if (rep.surface_slivers.moves > 0) {  // the interfaces moved with the tets: their figures and output too
         interface_quality(I, kind, labels, rep);
         result.surfaces.vertices = result.particles.vertices = physical_vertices(grid, I.vertices);
       }
+      const double moves_seconds = std::chrono::duration<double>(clock::now() - moves_start).count();
       const auto output_start = clock::now();
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
@@ -461,6 +463,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       rep.steps.push_back({"volume mesh", "cutting into pieces", meshes.cut_seconds});
       rep.steps.push_back({"volume mesh", "TetGen runs", meshes.runs_seconds});
       rep.steps.push_back({"volume mesh", "merge and seams", meshes.seam_seconds});
+      rep.steps.push_back({"volume mesh", "interface vertex moves", moves_seconds});
       const Tets& V = meshes.tets;
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.

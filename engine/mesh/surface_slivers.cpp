@@ -98,7 +98,7 @@ class Mover {
     constexpr int kDraws = 12;
     uint64_t draw = 0;
     for (double step : kSteps)
-      for (int d = 0; d < kDraws; ++d, ++draw) {
+      for (int d = 0; d < kDraws && best.below > 0; ++d, ++draw) {  // until none of v's tets is under the bound
         const uint64_t key = (uint64_t(v) << 20) ^ (uint64_t(pass) << 12) ^ draw;
         glm::dvec3 dir(hashed_normal(3 * key), hashed_normal(3 * key + 1), hashed_normal(3 * key + 2));
         if (in_plane) dir -= glm::dot(dir, normal) * normal;
@@ -168,11 +168,21 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const
   report.slivers_before = report.slivers_after = bad.size();
   if (bad.empty()) return report;
   Mover mover(points, tets, triangles, project, target, max_radius_edge);
+  // A vertex is tried again only once something in its star has moved since it last failed.
+  std::vector<uint8_t> stale(points.size(), 0);
   for (int pass = 0; pass < passes && !bad.empty(); ++pass) {
     size_t moved = 0;
     for (uint32_t t : bad)
-      for (uint32_t v : tets[t])
-        if (is_movable(v) && mover.min_angle(t) < target && mover.move(v, movable[v] == 1, pass)) ++moved;
+      for (uint32_t v : tets[t]) {
+        if (!is_movable(v) || stale[v] || mover.min_angle(t) >= target) continue;
+        if (!mover.move(v, movable[v] == 1, pass)) {
+          stale[v] = 1;
+          continue;
+        }
+        ++moved;
+        for (uint32_t k : mover.tets_around(v))
+          for (uint32_t u : tets[k]) stale[u] = 0;
+      }
     report.moves += moved;
     bad = slivers();  // a move may leave a tet of its star under the bound where it lifts another
     if (moved == 0) break;
