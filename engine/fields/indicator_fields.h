@@ -11,7 +11,7 @@
 // 0.21 voxel at worst).
 // A sign alone lets an island of a few voxels shrink to almost nothing (its fields near 0 at its centres after the
 // first pass), and it then meshes as a flat double layer of slivers: at the voxels of thin islands every field keeps
-// island_margin from 0 where asked (docs/design.md, "Small islands").
+// island_margin from 0 (docs/design.md, "Small islands").
 // Then the paper's "tightening" (Williams & Rossignac): a curvature-limited level-set flow that moves the surface only
 // where a principal curvature radius is below r, and never more than r from the antialiased surface (the r-tube).
 // Tightening may move a surface across voxel centres; three things keep it honest:
@@ -58,7 +58,7 @@ struct IndicatorOptions {
   // voxels: at the voxels of thin islands (protected from tightening, below, in a face-connected component of at
   // most island_voxels with one label around it), every field stays at least this far from 0 with the voxel's sign (0: the sign only, as
   // everywhere else). Not on sheets and tubes: there it pins the surface to the staircase.
-  double island_margin = 0;  // 0.4 makes islands-48 hold every check (docs/design.md); off: see there
+  double island_margin = 0.4;  // islands-48 holds every check with it (docs/design.md); 0: the sign only
   size_t island_voxels = 64;
   double tighten_radius = 1.0;   // r, in voxels of the smallest spacing: smallest curvature radius kept (0: off)
   int tighten_iterations = 0;    // flow steps (0: automatic, enough to move r)

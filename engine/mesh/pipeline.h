@@ -20,7 +20,8 @@
 // Delaunay and the tets' adjacency, then the repair's point insertions into it: DelaunayMesh) + "extraction"
 // (the rest: the point list, tet labels, repair, interface triangles); "volume mesh" = "region seeds" (a
 // seed point per material component) + "cutting into pieces" + "TetGen runs" + "merge and seams" (volume_mesh.h) +
-// "output and statistics" (the output's numbering, physical units and tet quality).
+// "interface vertex moves" (surface_slivers.h, with the interfaces' figures measured again after them) + "output and
+// statistics" (the output's numbering, physical units and tet quality).
 #include <array>
 #include <functional>
 #include <stdexcept>

@@ -125,6 +125,7 @@ TEST_CASE_FIXTURE(GpuFixture, "sphere: interface within 0.5 voxel of the analyti
                                                                    {"volume mesh", "cutting into pieces"},
                                                                    {"volume mesh", "TetGen runs"},
                                                                    {"volume mesh", "merge and seams"},
+                                                                   {"volume mesh", "interface vertex moves"},
                                                                    {"volume mesh", "output and statistics"}};
   REQUIRE(r.report.steps.size() == steps.size());
   std::map<std::string, double> within;
