@@ -53,4 +53,15 @@ std::vector<uint16_t> union_of(std::span<const MaterialSet> sets, std::initializ
   return out;
 }
 
+MaterialList::MaterialList(std::vector<uint16_t> members) : members_(std::move(members)) {
+  std::sort(members_.begin(), members_.end());
+  members_.erase(std::unique(members_.begin(), members_.end()), members_.end());
+}
+
+std::vector<uint16_t> union_of(std::span<const MaterialList> lists, std::initializer_list<uint16_t> more) {
+  std::vector<uint16_t> out(more);
+  for (const MaterialList& l : lists) out.insert(out.end(), l.members().begin(), l.members().end());
+  return MaterialList(std::move(out)).members();
+}
+
 }  // namespace cpmesh::fields

@@ -6,9 +6,11 @@
 // walk's lumping the intersection of a node's sets; both work slot by slot, which the shaders do the same way on two
 // 32-bit words (shaders/shared/material_set.glsl: slots 0 and 1 in x, low half first, 2 and 3 in y). With fewer than
 // 64 materials one AND of bit masks (mask64) answers both, and the shaders compare only those.
+#include <algorithm>
 #include <cstdint>
 #include <initializer_list>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace cpmesh::fields {
@@ -63,5 +65,24 @@ bool needs_exact_sets(std::span<const MaterialSet> sets);
 
 // The union of the members of some sets and some more materials, ascending and distinct.
 std::vector<uint16_t> union_of(std::span<const MaterialSet> sets, std::initializer_list<uint16_t> more = {});
+
+// Any number of materials, ascending and distinct: the host's per-vertex sets in the restricted Delaunay, where a
+// vertex may stand for junctions closer together than the refinement separates (mesh/refine.h,
+// widen_to_near_junctions): around a voxel corner up to eight labels meet, more than four slots hold.
+class MaterialList {
+ public:
+  MaterialList() = default;
+  MaterialList(MaterialSet set) : members_(set.members()) {}  // NOLINT: every set is a list
+  explicit MaterialList(std::vector<uint16_t> members);
+  bool has(uint16_t m) const { return std::binary_search(members_.begin(), members_.end(), m); }
+  const std::vector<uint16_t>& members() const { return members_; }
+  size_t size() const { return members_.size(); }
+
+ private:
+  std::vector<uint16_t> members_;
+};
+
+// The union of the members of some lists and some more materials, ascending and distinct.
+std::vector<uint16_t> union_of(std::span<const MaterialList> lists, std::initializer_list<uint16_t> more = {});
 
 }  // namespace cpmesh::fields

@@ -87,19 +87,19 @@ uint16_t material_across(const Adjacency& adj, const std::vector<uint16_t>& hull
   return adj.neighbour[tc] == Adjacency::kHull ? hull[tc] : material[adj.neighbour[tc] / 4];
 }
 
-bool face_is_wrong(const Tets& T, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialSet>& vertex_materials) {
+bool face_is_wrong(const Tets& T, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialList>& vertex_materials) {
   if (m == o) return false;
   const auto& v = T.tets[tc / 4];
   const int c = int(tc % 4);
   for (int k = 0; k < 3; ++k) {
-    const fields::MaterialSet& s = vertex_materials[v[size_t(kFace[c][k])]];
+    const fields::MaterialList& s = vertex_materials[v[size_t(kFace[c][k])]];
     if (!s.has(m) || !s.has(o)) return true;
   }
   return false;
 }
 
 size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material, int passes) {
+                     const std::vector<fields::MaterialList>& vertex_materials, std::vector<uint16_t>& material, int passes) {
   auto other = [&](uint32_t tc) { return material_across(adj, hull, material, tc); };
   auto cost = [&](uint32_t t, uint16_t m) {
     int n = 0;
@@ -140,7 +140,7 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
       int best = now;
       uint16_t best_m = material[t];
       // Candidates: the neighbours' materials and every material a vertex of the tet lies on.
-      const std::array<fields::MaterialSet, 4> around = {vertex_materials[T.tets[t][0]], vertex_materials[T.tets[t][1]],
+      const std::array<fields::MaterialList, 4> around = {vertex_materials[T.tets[t][0]], vertex_materials[T.tets[t][1]],
                                                          vertex_materials[T.tets[t][2]], vertex_materials[T.tets[t][3]]};
       for (uint16_t m : fields::union_of(around, {other(t * 4), other(t * 4 + 1), other(t * 4 + 2), other(t * 4 + 3)})) {
         if (m == material[t]) continue;
@@ -166,7 +166,7 @@ size_t repair_labels(const Tets& T, const Adjacency& adj, const std::vector<uint
 }
 
 std::vector<uint32_t> wrong_faces(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                                  const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint16_t>& material) {
+                                  const std::vector<fields::MaterialList>& vertex_materials, const std::vector<uint16_t>& material) {
   // Chunks of faces in parallel, joined in order: the faces in ascending order, as one loop finds them.
   return collect_in_order_by_index<uint32_t>(adj.neighbour.size(), size_t(1) << 16, [&](size_t i, auto& out) {
     const uint32_t tc = uint32_t(i), nb = adj.neighbour[tc];
@@ -248,6 +248,25 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
   for (size_t t = 0; t < n; ++t)
     if (root[t] == t && !unbounded[t]) reps.push_back(rep_of[t]);
   return reps;
+}
+
+size_t promote_junction_vertices(InterfaceMesh& mesh, const std::vector<fields::MaterialList>& vertex_materials,
+                                 std::vector<uint8_t>& kind) {
+  std::vector<std::vector<uint16_t>> touched(mesh.vertices.size());
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (uint32_t v : mesh.triangles[t]) touched[v].insert(touched[v].end(), mesh.pair[t].begin(), mesh.pair[t].end());
+  size_t promoted = 0;
+  for (size_t v = 0; v < touched.size(); ++v) {
+    auto& ms = touched[v];
+    std::sort(ms.begin(), ms.end());
+    ms.erase(std::unique(ms.begin(), ms.end()), ms.end());
+    const size_t holds = 4 - size_t(kind[v]);  // FeatureKind: 0 point (4 materials), 1 curve (3), 2 interface (2)
+    if (ms.size() <= holds || kind[v] == 0) continue;  // a quadruple point already holds any number
+    if (!std::all_of(ms.begin(), ms.end(), [&](uint16_t m) { return vertex_materials[v].has(m); })) continue;
+    kind[v] = mesh.vertex_kind[v] = uint8_t(ms.size() >= 4 ? 0 : 4 - ms.size());
+    ++promoted;
+  }
+  return promoted;
 }
 
 }  // namespace cpmesh::mesh

@@ -50,16 +50,23 @@ uint16_t material_across(const Adjacency& adj, const std::vector<uint16_t>& hull
                          uint32_t tc);
 // vertex_materials[v]: the materials of the feature particle v lies on (Feature::material_set).
 // Face tc between materials m and o is wrong when m != o and one of its vertices lacks m or o.
-bool face_is_wrong(const Tets& tets, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialSet>& vertex_materials);
+bool face_is_wrong(const Tets& tets, uint32_t tc, uint16_t m, uint16_t o, const std::vector<fields::MaterialList>& vertex_materials);
 // Returns the number of tets relabelled.
 size_t repair_labels(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material, int passes = 50);
+                     const std::vector<fields::MaterialList>& vertex_materials, std::vector<uint16_t>& material, int passes = 50);
 // The wrong faces (as tet * 4 + corner, each shared face once).
 std::vector<uint32_t> wrong_faces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
-                                  const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint16_t>& material);
+                                  const std::vector<fields::MaterialList>& vertex_materials, const std::vector<uint16_t>& material);
 
 InterfaceMesh extract_interfaces(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                  const std::vector<uint16_t>& material, const std::vector<uint8_t>& vertex_kind);
+
+// A vertex whose triangles meet more materials than its feature has, all of them in its (widened) material set
+// (refine.h, widen_to_near_junctions), is a junction of the mesh: its kind becomes that of the junction (a triple
+// curve for three materials, a quadruple point for four or more: a junction point) in `kind` and in
+// mesh.vertex_kind. Returns how many.
+size_t promote_junction_vertices(InterfaceMesh& mesh, const std::vector<fields::MaterialList>& vertex_materials,
+                                 std::vector<uint8_t>& kind);
 
 // One tet per connected set of same-material tets (through shared faces) that is enclosed by interfaces: the
 // one with the largest inscribed sphere (its centroid seeds the region in the volume mesh).

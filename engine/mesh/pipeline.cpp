@@ -102,9 +102,12 @@ std::vector<std::array<double, 3>> physical_vertices(const fields::Grid& grid, c
 SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const std::vector<uint32_t>& vertex_feature,
                                          const std::vector<uint8_t>& kind, const QualityOptions& options,
                                          InterfaceMesh& I, Tets& V) {
+  // A vertex promoted to a junction (extract.h) stays: its feature is not the junction it stands for.
   std::vector<uint8_t> movable(I.vertices.size());
-  for (size_t v = 0; v < movable.size(); ++v)
-    movable[v] = kind[v] == uint8_t(fields::FeatureKind::interface) ? 1 : kind[v] == uint8_t(fields::FeatureKind::triple_curve) ? 2 : 0;
+  for (size_t v = 0; v < movable.size(); ++v) {
+    const auto own = F.embedding.features[vertex_feature[v]].kind;
+    movable[v] = kind[v] != uint8_t(own) ? 0 : own == fields::FeatureKind::interface ? 1 : own == fields::FeatureKind::triple_curve ? 2 : 0;
+  }
   const FeatureProjection project = [&](uint32_t v, const glm::dvec3& near, glm::dvec3& on) {
     return onto_feature(F.fields, F.embedding, vertex_feature[v], near, V.points[v], on);
   };
@@ -267,7 +270,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   std::vector<glm::dvec3> points;
   std::vector<uint8_t> kind;
-  std::vector<fields::MaterialSet> vertex_materials;
+  std::vector<fields::MaterialList> vertex_materials;
   std::vector<float> vertex_h;
   std::vector<uint32_t> vertex_feature;
   auto set_vertex = [&](size_t v, const glm::dvec3& p, uint32_t f, float h) {
@@ -305,6 +308,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   };
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
+  moved.assign(points.size(), 0);
+  const std::vector<uint32_t> clustered = clustered_junction_points(points, kind, vertex_h, kMinCrowding * grid.min_spacing());
+  rep.refinement_removals += clustered.size();
+  remove_vertices(clustered);
 
   // Delaunay, labels, repair, then Delaunay refinement (refine.h): where wrong faces are left or an interface is not
   // a manifold bounded by triple curves, samples are added on the missing features (inserted into the
@@ -336,7 +343,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     std::vector<uint16_t> material, hull;
     std::vector<glm::dvec3> points;
     std::vector<uint8_t> kind;
-    std::vector<fields::MaterialSet> vertex_materials;
+    std::vector<fields::MaterialList> vertex_materials;
     std::vector<float> vertex_h;
     std::vector<uint32_t> vertex_feature;
     MeshReport report;
@@ -346,7 +353,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     hull = hull_materials(F.fields, T, adj);
     if (round == 0) rep.wrong_faces_before_repair = wrong_faces(T, adj, hull, vertex_materials, material).size();
     rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
-    const auto wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+    auto wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+    for (int pass = 0; pass < 3 && !wrong.empty() &&
+                       widen_to_near_junctions(F.fields, F.embedding, T, adj, hull, material, wrong, vertex_h, vertex_materials) > 0;
+         ++pass) {
+      rep.relabelled_tets += repair_labels(T, adj, hull, vertex_materials, material);
+      wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+    }
     rep.wrong_faces = wrong.size();
     std::vector<uint32_t> faces = nonmanifold_faces(extract_interfaces(T, adj, hull, material, kind));
     faces.insert(faces.end(), wrong.begin(), wrong.end());
@@ -400,6 +413,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   delaunay_mesh.reset();
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
+  rep.junction_vertices = promote_junction_vertices(I, vertex_materials, kind);
   rep.steps.push_back({"delaunay and extraction", "tetrahedralization", tetrahedralization_seconds});
   rep.steps.push_back({"delaunay and extraction", "extraction",
                        std::max(0.0, std::chrono::duration<double>(clock::now() - stage_start).count() -

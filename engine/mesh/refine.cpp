@@ -20,8 +20,8 @@ class PointHash {
  public:
   explicit PointHash(double cell) : cell_(cell) {}
   void add(const glm::dvec3& p, int64_t index) { cells_[key(cell_of(p))].push_back({p, index}); }
-  // The index of the nearest point within r of q, or -1 (-2 where the nearest has no index).
-  int64_t nearest_within(const glm::dvec3& q, double r) const {
+  // The index of the nearest point within r of q other than `skip`, or -1 (-2 where the nearest has no index).
+  int64_t nearest_within(const glm::dvec3& q, double r, int64_t skip = -1) const {
     const glm::ivec3 c = cell_of(q);
     int64_t best = -1;
     double best_d = r;
@@ -31,7 +31,7 @@ class PointHash {
           const auto it = cells_.find(key(c + glm::ivec3(dx, dy, dz)));
           if (it == cells_.end()) continue;
           for (const auto& [p, index] : it->second)
-            if (const double d = glm::length(p - q); d < best_d) best_d = d, best = index;
+            if (const double d = glm::length(p - q); d < best_d && (index != skip || index < 0)) best_d = d, best = index;
         }
     return best;
   }
@@ -119,7 +119,7 @@ std::optional<glm::dvec3> material_change(const fields::IndicatorFields& F, glm:
 
 std::vector<RefineSite> face_sites(const fields::IndicatorFields& F, const Tets& T, const Adjacency& adj,
                                    const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
-                                   const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint32_t>& faces) {
+                                   const std::vector<fields::MaterialList>& vertex_materials, const std::vector<uint32_t>& faces) {
   std::vector<RefineSite> out(faces.size());
   tbb::parallel_for(size_t(0), faces.size(), [&](size_t i) {
     const uint32_t tc = faces[i];
@@ -234,8 +234,11 @@ Refinement refinement_points(const fields::IndicatorFields& F, const fields::Clo
     near.add(to.position, -2);
   };
   const double floor = kMinCrowding * F.grid.min_spacing();
+  // Only interface samples squeeze in closer (refine.h): a junction sample beside a junction vertex is the same
+  // junction, a sliver in the making (clustered_junction_points).
   auto crowding = [&](const RefinePoint& c, const RefineSite& s) {
-    return std::max(floor, s.wrong ? kCrowding * c.h : std::min(kCrowding * c.h, kBallShare * s.radius));
+    const bool squeeze = !s.wrong && E.features[c.feature].kind == fields::FeatureKind::interface;
+    return std::max(floor, squeeze ? std::min(kCrowding * c.h, kBallShare * s.radius) : kCrowding * c.h);
   };
   for (size_t i = 0; i < chosen.size(); ++i) {
     const RefinePoint& c = chosen[i];
@@ -246,7 +249,8 @@ Refinement refinement_points(const fields::IndicatorFields& F, const fields::Clo
     if (v == -1) {
       out.added.push_back(c);
       near.add(c.position, -2);
-    } else if (v >= 0 && !taken[size_t(v)] && !fixed(size_t(v)) && lacks_pair(size_t(v))) {
+    } else if (v >= 0 && !taken[size_t(v)] && !fixed(size_t(v)) && lacks_pair(size_t(v)) &&
+               near.nearest_within(c.position, crowding(c, sites[i]), v) == -1) {
       move(uint32_t(v), c);
     } else if (v >= 0 && !taken[size_t(v)] && lacks_pair(size_t(v))) {
       taken[size_t(v)] = 1, out.removed.push_back(uint32_t(v));
@@ -265,6 +269,68 @@ Refinement refinement_points(const fields::IndicatorFields& F, const fields::Clo
     }
   }
   return out;
+}
+
+std::vector<uint32_t> clustered_junction_points(const std::vector<glm::dvec3>& points, const std::vector<uint8_t>& kind,
+                                                const std::vector<float>& h, double floor) {
+  std::vector<uint32_t> junctions;
+  double largest = floor;
+  for (uint32_t v = 0; v < points.size(); ++v)
+    if (kind[v] == uint8_t(fields::FeatureKind::quadruple_point)) {
+      junctions.push_back(v);
+      largest = std::max(largest, kCrowding * double(h[v]));
+    }
+  PointHash kept(largest);
+  std::vector<uint32_t> out;
+  for (uint32_t v : junctions) {
+    if (kept.nearest_within(points[v], std::max(floor, kCrowding * double(h[v]))) != -1) out.push_back(v);
+    else kept.add(points[v], v);
+  }
+  for (uint32_t v = 0; v < points.size(); ++v)
+    if (kind[v] == uint8_t(fields::FeatureKind::triple_curve) &&
+        kept.nearest_within(points[v], std::max(floor, kCrowding * double(h[v]))) != -1)
+      out.push_back(v);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::ClosestPointEmbedding& E, const Tets& T, const Adjacency& adj,
+                               const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
+                               const std::vector<uint32_t>& wrong, const std::vector<float>& h,
+                               std::vector<fields::MaterialList>& vertex_materials) {
+  size_t widened = 0;
+  for (uint32_t tc : wrong) {
+    const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
+    for (uint32_t v : outward_face(T, tc)) {
+      fields::MaterialList& own = vertex_materials[v];
+      if ((own.has(m) && own.has(o)) || own.size() < 3) continue;
+      const std::vector<uint16_t> needed = fields::union_of(std::span(&own, 1), {m, o});
+      if (needed.size() > kMaxJunctionMaterials) continue;
+      const glm::dvec3& p = T.points[v];
+      // Every junction among the needed materials that holds the ones the vertex lacks, the quadruple point first.
+      for (uint32_t subset = (1u << needed.size()) - 1; subset > 0; --subset) {
+        std::vector<uint16_t> S;
+        for (size_t i = 0; i < needed.size(); ++i)
+          if (subset >> i & 1) S.push_back(needed[i]);
+        const bool holds_missing = (own.has(m) || std::count(S.begin(), S.end(), m)) &&
+                                   (own.has(o) || std::count(S.begin(), S.end(), o));
+        if (S.size() < 3 || !holds_missing) continue;
+        std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+        std::copy(S.begin(), S.end(), key.begin());
+        const int f = E.feature_index(S.size() == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
+        const double radius = kCrowding * double(h[v]);
+        if (f < 0) continue;
+        const auto on = closest_on_feature(F, E, p, uint32_t(f), radius, h[v]);
+        if (!on || !(glm::length(on->position - p) <= radius)) continue;
+        std::vector<uint16_t> grown = own.members();
+        grown.insert(grown.end(), S.begin(), S.end());
+        own = fields::MaterialList(std::move(grown));
+        ++widened;
+        break;
+      }
+    }
+  }
+  return widened;
 }
 
 }  // namespace cpmesh::mesh

@@ -55,7 +55,7 @@ struct RefineSite {
 // (the face centroid where the edge shows no change of material).
 std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const Tets& tets, const Adjacency& adj,
                                    const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
-                                   const std::vector<fields::MaterialSet>& vertex_materials, const std::vector<uint32_t>& faces);
+                                   const std::vector<fields::MaterialList>& vertex_materials, const std::vector<uint32_t>& faces);
 
 // The tet faces of the interface triangles around edges where an interface is not an edge-manifold bounded by
 // triple curves: edges in more than two triangles of one interface, and edges in one triangle of an interface that
@@ -79,11 +79,35 @@ struct Refinement {
 };
 struct RefineVertices {
   const std::vector<glm::dvec3>& points;
-  const std::vector<fields::MaterialSet>& materials;
+  const std::vector<fields::MaterialList>& materials;
   const std::vector<float>& h;
   const std::vector<uint8_t>& fixed;
 };
 Refinement refinement_points(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
                              const std::vector<RefineSite>& sites, const RefineVertices& vertices, double protection);
+
+// The quadruple points (and curve points) to leave out: each within kCrowding x its h (at least `floor`) of one before it. Where five
+// to eight labels meet around a voxel corner the smoothed fields have a cluster of quadruple points a
+// ten-thousandth to a few tenths of a voxel apart, which no sampling at the crowding radius separates: as vertices
+// they make a tangle of slivers and non-manifold edges. The first of a cluster stands for it
+// (widen_to_near_junctions gives it the others' materials). Curve points as near to a kept quadruple point go too,
+// as the junction protection clears interface points from around curves. Other points are left alone.
+std::vector<uint32_t> clustered_junction_points(const std::vector<glm::dvec3>& points, const std::vector<uint8_t>& kind,
+                                        const std::vector<float>& h, double floor);
+
+// Junctions closer than the refinement can separate (docs/design.md, "Junctions closer than the crowding radius"):
+// where four labels meet along a voxel edge (a 2 x 2 staircase), the smoothed fields split the line into two triple
+// curves a few hundredths of a voxel apart, joined by a ribbon of interface between two of the four that no
+// sampling at the crowding radius resolves. A junction vertex (on a curve or point: an interface vertex beside a
+// junction is the refinement's, which moves it onto the junction) of a wrong face that lacks the face's materials
+// is taken to lie on them when a triple curve or quadruple point of its own materials and the face's (at most
+// kMaxJunctionMaterials in all, the labels around a voxel corner) has its closest point within kCrowding x h of it:
+// its material set grows by that feature's. Returns how many sets grew.
+constexpr size_t kMaxJunctionMaterials = 8;
+size_t widen_to_near_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
+                               const Tets& tets, const Adjacency& adj,
+                               const std::vector<uint16_t>& hull, const std::vector<uint16_t>& material,
+                               const std::vector<uint32_t>& wrong, const std::vector<float>& h,
+                               std::vector<fields::MaterialList>& vertex_materials);
 
 }  // namespace cpmesh::mesh

@@ -157,6 +157,7 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
         has[v] = 0;
         if (around[v].empty()) continue;
         const auto kind = E.features[vertex_feature[v]].kind;
+        if (mesh.vertex_kind[v] != uint8_t(kind)) continue;  // a junction of the mesh off its feature's (extract.h)
         glm::dvec3 target;
         if (kind == fields::FeatureKind::interface) {
           glm::dvec3 sum(0.0);

@@ -122,6 +122,25 @@ class CheckerTest(unittest.TestCase):
         code, text = self.run_checker(t, p, feature=tagged, extra=["--only", "wrong faces"])
         self.assertEqual(code, 0, text)
 
+    def test_a_junction_point_of_more_than_four_materials_where_the_volume_has_them(self):
+        # Five materials at cube corner 0; the 2 x 2 x 2 volume's voxels within a voxel of it hold labels 1-4, and
+        # 0 lies beyond its faces.
+        t, p = boundary(self.tets, self.material)
+        self.labels = [1, 2, 3, 4, 1, 1, 1, 1]
+        d = self.dir.name
+        at_corner = [i for i, tri in enumerate(t.tolist()) if 0 in tri]
+        for mats, expected in (([0, 1, 2, 3, 4], 0), ([0, 1, 2, 3, 9], 1)):
+            p = p.copy()
+            for k, i in enumerate(at_corner):
+                p[i] = sorted((mats[k % 5], mats[(k + 1) % 5]))
+            write_nrrd(f"{d}/l2.nrrd", self.labels, [2, 2, 2])
+            write_vtp(f"{d}/s.vtp", self.points, t, p, np.zeros(len(self.points), dtype=int))
+            out = io.StringIO()
+            with redirect_stdout(out):
+                code = cc.main(["--surfaces", f"{d}/s.vtp", "--volume", f"{d}/l2.nrrd", "--only", "wrong faces"])
+            self.assertEqual(code, expected, out.getvalue())
+            self.assertIn("wrong_faces                  0" if expected == 0 else "FAIL wrong faces", out.getvalue())
+
     def test_crossing_triangles(self):
         p = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [1.5, 1.5, 0.2],
                       [5, 5, 5], [6, 5, 5], [5, 6, 5]], dtype=float)

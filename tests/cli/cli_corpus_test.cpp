@@ -84,6 +84,17 @@ TEST_CASE("corpus organs-64: tubes with one- and two-voxel walls, anisotropic vo
   CHECK(measured(check, "min_dihedral") >= 6);
 }
 
+TEST_CASE("corpus parcellation-48: 40 labels whose staircase meets four and more at voxel edges and corners") {
+  // docs/design.md, "Junctions closer than the crowding radius": without the junction rules the refinement left 22
+  // wrong faces at three such places (exit 1), and a cluster of quadruple points made tets of 0.2 degrees.
+  const std::string volume = corpus_file("parcellation-48");
+  const auto [report, check] = mesh_holding_the_guarantee(volume, cpmesh::test::scratch_dir("parcellation"));
+  CHECK(report["repair"]["junction_vertices"].get<int>() > 0);
+  CHECK(measured(check, "wrong_faces") == 0);
+  CHECK(measured(check, "labels_missing") == 0);
+  CHECK(measured(check, "min_dihedral") >= 4);
+}
+
 TEST_CASE("a mesh that breaks the guarantee is an error that names the interfaces and places, never exit 0") {
   const std::string volume = corpus_file("noisy-48");
   const auto out = cpmesh::test::scratch_dir("noisy");

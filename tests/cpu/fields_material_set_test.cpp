@@ -73,5 +73,15 @@ TEST_CASE("inclusion and intersection agree with sets, for ids whose halves diff
 TEST_CASE("union_of: the members of several sets and more materials, ascending and distinct") {
   const std::vector<MaterialSet> sets = {{300, 4}, {4, 70000 % 65536}, {}};
   CHECK(fields::union_of(sets, {4, 1}) == std::vector<uint16_t>{1, 4, 300, 70000 % 65536});
-  CHECK(fields::union_of({}, {}).empty());
+  CHECK(fields::union_of(std::span<const fields::MaterialSet>{}, {}).empty());
+}
+
+TEST_CASE("material lists: any number of materials, ascending and distinct") {
+  const fields::MaterialList l(std::vector<uint16_t>{1002, 3, 84, 3, 255, 7, 9});
+  CHECK(l.members() == std::vector<uint16_t>{3, 7, 9, 84, 255, 1002});
+  CHECK(l.has(255));
+  CHECK(!l.has(4));
+  const fields::MaterialList from_set = fields::MaterialSet{5, 1};
+  CHECK(from_set.members() == std::vector<uint16_t>{1, 5});
+  CHECK(fields::union_of(std::array{l, from_set}, {2}) == std::vector<uint16_t>{1, 2, 3, 5, 7, 9, 84, 255, 1002});
 }

@@ -8,6 +8,7 @@
 
 #include <tbb/global_control.h>
 
+#include "fields/closest_point_embedding.h"
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
 
@@ -17,7 +18,7 @@ namespace {
 
 // repair_labels as one loop over every tet per pass (its definition).
 size_t serial_repair(const mesh::Tets& T, const mesh::Adjacency& adj, const std::vector<uint16_t>& hull,
-                     const std::vector<fields::MaterialSet>& vertex_materials, std::vector<uint16_t>& material,
+                     const std::vector<fields::MaterialList>& vertex_materials, std::vector<uint16_t>& material,
                      int passes) {
   auto other = [&](uint32_t tc) { return mesh::material_across(adj, hull, material, tc); };
   auto cost = [&](uint32_t t, uint16_t m) {
@@ -66,7 +67,7 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
   }
   const auto index = [](uint32_t k) { return uint16_t(k * 150 + 3); };
   const auto region = [&](const glm::dvec3& p) { return index((p.x > 0.1) + 2 * (p.y > -0.2) + (p.z > 0.3)); };
-  std::vector<fields::MaterialSet> vertex_materials(points.size());
+  std::vector<fields::MaterialList> vertex_materials(points.size());
   for (size_t v = 0; v < points.size(); ++v) {
     std::vector<uint16_t> m = {region(points[v])};
     for (int k = 0; k < 2; ++k)
@@ -112,4 +113,29 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
     CHECK(parallel_changed == serial_changed);
     CHECK(parallel == serial);
   }
+}
+
+TEST_CASE("promoted junction vertices: a vertex meeting more materials than its feature, all in its set") {
+  constexpr auto kInterface = uint8_t(fields::FeatureKind::interface);
+  constexpr auto kCurve = uint8_t(fields::FeatureKind::triple_curve);
+  // Four triangles around vertex 0 between materials 1, 2, 3 and 4 (a line where four labels meet); vertex 0 is on
+  // a triple curve of 1, 2, 3, vertex 1 on interface 1/2.
+  mesh::InterfaceMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1}};
+  m.pair = {{1, 2}, {2, 3}, {3, 4}, {1, 4}};
+  m.face = {0, 1, 2, 3};
+  std::vector<uint8_t> kind = {kCurve, kInterface, kInterface, kInterface, kInterface};
+  m.vertex_kind = kind;
+  std::vector<fields::MaterialList> sets = {fields::MaterialSet{1, 2, 3}, fields::MaterialSet{1, 2},
+                                            fields::MaterialSet{2, 3}, fields::MaterialSet{3, 4},
+                                            fields::MaterialSet{1, 4}};
+  // Its own set lacks 4: nothing changes (the faces are wrong, and stay so for the checker).
+  CHECK(mesh::promote_junction_vertices(m, sets, kind) == 0);
+  CHECK(kind[0] == kCurve);
+  // Widened by a junction near it (refine.h), it becomes a junction point of the mesh.
+  sets[0] = fields::MaterialList(std::vector<uint16_t>{1, 2, 3, 4});
+  CHECK(mesh::promote_junction_vertices(m, sets, kind) == 1);
+  CHECK(kind[0] == uint8_t(fields::FeatureKind::quadruple_point));
+  CHECK(m.vertex_kind[0] == kind[0]);
 }

@@ -51,3 +51,16 @@ TEST_CASE("refinement faces: interfaces ending on a triple curve are right, endi
   m.vertex_kind[1] = kInterface;
   CHECK(nonmanifold_faces(m) == std::vector<uint32_t>{0, 1, 3, 4, 6});
 }
+
+TEST_CASE("clustered junction points: one quadruple point per cluster, and no curve point inside its ball") {
+  constexpr auto kPoint = uint8_t(fields::FeatureKind::quadruple_point);
+  // h 1: quadruple points 0.0002 and 0.2 from point 0 (within kCrowding x h = 0.3) go, one 0.5 away stays; a curve
+  // point 0.1 from point 0 goes, one 0.4 away and an interface point 0.05 away stay.
+  const std::vector<glm::dvec3> points = {{0, 0, 0}, {0.0002, 0, 0}, {0, 0.2, 0}, {0.5, 0, 0},
+                                          {0, 0, 0.1}, {0, 0, 0.4}, {0, 0.05, 0}};
+  const std::vector<uint8_t> kind = {kPoint, kPoint, kPoint, kPoint, kCurve, kCurve, kInterface};
+  const std::vector<float> h(points.size(), 1.0f);
+  CHECK(clustered_junction_points(points, kind, h, 0.05) == std::vector<uint32_t>{1, 2, 4});
+  // Nothing within the floor or the ball when h is small.
+  CHECK(clustered_junction_points(points, kind, std::vector<float>(points.size(), 0.0001f), 0.0001).empty());
+}
