@@ -309,7 +309,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   for (size_t i = 0; i < P.particles.size(); ++i)
     add_vertex(glm::dvec3(glm::vec3(P.particles[i])), P.features[i], P.particles[i].w);
   moved.assign(points.size(), 0);
-  const std::vector<uint32_t> clustered = clustered_junction_points(points, kind, vertex_h, kMinCrowding * grid.min_spacing());
+  const std::vector<uint32_t> clustered = clustered_junction_points(points, kind, vertex_h, grid.min_spacing());
   rep.refinement_removals += clustered.size();
   remove_vertices(clustered);
 

@@ -272,23 +272,23 @@ Refinement refinement_points(const fields::IndicatorFields& F, const fields::Clo
 }
 
 std::vector<uint32_t> clustered_junction_points(const std::vector<glm::dvec3>& points, const std::vector<uint8_t>& kind,
-                                                const std::vector<float>& h, double floor) {
+                                                const std::vector<float>& h, double voxel) {
+  auto radius = [&](uint32_t v) { return junction_radius(h[v], voxel); };
   std::vector<uint32_t> junctions;
-  double largest = floor;
+  double largest = kMinCrowding * voxel;
   for (uint32_t v = 0; v < points.size(); ++v)
     if (kind[v] == uint8_t(fields::FeatureKind::quadruple_point)) {
       junctions.push_back(v);
-      largest = std::max(largest, kCrowding * double(h[v]));
+      largest = std::max(largest, radius(v));
     }
   PointHash kept(largest);
   std::vector<uint32_t> out;
   for (uint32_t v : junctions) {
-    if (kept.nearest_within(points[v], std::max(floor, kCrowding * double(h[v]))) != -1) out.push_back(v);
+    if (kept.nearest_within(points[v], radius(v)) != -1) out.push_back(v);
     else kept.add(points[v], v);
   }
   for (uint32_t v = 0; v < points.size(); ++v)
-    if (kind[v] == uint8_t(fields::FeatureKind::triple_curve) &&
-        kept.nearest_within(points[v], std::max(floor, kCrowding * double(h[v]))) != -1)
+    if (kind[v] == uint8_t(fields::FeatureKind::triple_curve) && kept.nearest_within(points[v], radius(v)) != -1)
       out.push_back(v);
   std::sort(out.begin(), out.end());
   return out;
@@ -318,7 +318,7 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
         std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
         std::copy(S.begin(), S.end(), key.begin());
         const int f = E.feature_index(S.size() == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
-        const double radius = kCrowding * double(h[v]);
+        const double radius = junction_radius(h[v], F.grid.min_spacing());
         if (f < 0) continue;
         const auto on = closest_on_feature(F, E, p, uint32_t(f), radius, h[v]);
         if (!on || !(glm::length(on->position - p) <= radius)) continue;

@@ -16,6 +16,7 @@
 // (kMinCrowding voxels bounds it from below). A wrong face keeps kCrowding x h: what it lacks is a junction sample,
 // and interface samples squeezed in beside the junction only make more wrong faces (the 40^3 wedge ball without
 // junction protection: 84 wrong faces left instead of none).
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -86,14 +87,22 @@ struct RefineVertices {
 Refinement refinement_points(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
                              const std::vector<RefineSite>& sites, const RefineVertices& vertices, double protection);
 
-// The quadruple points (and curve points) to leave out: each within kCrowding x its h (at least `floor`) of one before it. Where five
+// How near two junctions are one for the mesh: kCrowding x h (the refinement places no sample nearer), at least
+// kMinCrowding and at most kJunctionReach voxels, below the label map's own resolution (at 0.3 h alone, where h is
+// several voxels, parcellation-300-32 got a junction vertex of label 0 with no voxel of 0 within a voxel of it).
+constexpr double kJunctionReach = 0.5;  // voxels
+inline double junction_radius(float h, double voxel) {
+  return std::clamp(kCrowding * double(h), kMinCrowding * voxel, kJunctionReach * voxel);
+}
+
+// The quadruple points (and curve points) to leave out: each within junction_radius of one before it. Where five
 // to eight labels meet around a voxel corner the smoothed fields have a cluster of quadruple points a
 // ten-thousandth to a few tenths of a voxel apart, which no sampling at the crowding radius separates: as vertices
 // they make a tangle of slivers and non-manifold edges. The first of a cluster stands for it
 // (widen_to_near_junctions gives it the others' materials). Curve points as near to a kept quadruple point go too,
 // as the junction protection clears interface points from around curves. Other points are left alone.
 std::vector<uint32_t> clustered_junction_points(const std::vector<glm::dvec3>& points, const std::vector<uint8_t>& kind,
-                                        const std::vector<float>& h, double floor);
+                                                const std::vector<float>& h, double voxel);
 
 // Junctions closer than the refinement can separate (docs/design.md, "Junctions closer than the crowding radius"):
 // where four labels meet along a voxel edge (a 2 x 2 staircase), the smoothed fields split the line into two triple
@@ -101,7 +110,7 @@ std::vector<uint32_t> clustered_junction_points(const std::vector<glm::dvec3>& p
 // sampling at the crowding radius resolves. A junction vertex (on a curve or point: an interface vertex beside a
 // junction is the refinement's, which moves it onto the junction) of a wrong face that lacks the face's materials
 // is taken to lie on them when a triple curve or quadruple point of its own materials and the face's (at most
-// kMaxJunctionMaterials in all, the labels around a voxel corner) has its closest point within kCrowding x h of it:
+// kMaxJunctionMaterials in all, the labels around a voxel corner) has its closest point within junction_radius of it:
 // its material set grows by that feature's. Returns how many sets grew.
 constexpr size_t kMaxJunctionMaterials = 8;
 size_t widen_to_near_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,

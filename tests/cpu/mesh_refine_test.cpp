@@ -60,7 +60,10 @@ TEST_CASE("clustered junction points: one quadruple point per cluster, and no cu
                                           {0, 0, 0.1}, {0, 0, 0.4}, {0, 0.05, 0}};
   const std::vector<uint8_t> kind = {kPoint, kPoint, kPoint, kPoint, kCurve, kCurve, kInterface};
   const std::vector<float> h(points.size(), 1.0f);
-  CHECK(clustered_junction_points(points, kind, h, 0.05) == std::vector<uint32_t>{1, 2, 4});
-  // Nothing within the floor or the ball when h is small.
-  CHECK(clustered_junction_points(points, kind, std::vector<float>(points.size(), 0.0001f), 0.0001).empty());
+  CHECK(clustered_junction_points(points, kind, h, 1.0) == std::vector<uint32_t>{1, 2, 4});
+  // The ball is at most half a voxel: at h 10 the point 0.5 away stays, the curve point 0.4 away goes.
+  CHECK(clustered_junction_points(points, kind, std::vector<float>(points.size(), 10.0f), 1.0) ==
+        std::vector<uint32_t>{1, 2, 4, 5});
+  // Nothing within the floor (a twentieth of a voxel) or the ball when h and the voxels are small.
+  CHECK(clustered_junction_points(points, kind, std::vector<float>(points.size(), 0.0001f), 0.001).empty());
 }

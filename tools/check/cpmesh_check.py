@@ -14,7 +14,8 @@ bad mesh. What it checks (docs/design.md, "The guarantee"):
                closed: every edge in an even number of them
   wrong faces  a vertex tagged as an interface vertex has triangles of one material pair only; a curve vertex of
                at most three materials, a junction point of at most four, or of more where the volume (--volume)
-               has each of them within a voxel of it (around a voxel corner up to eight labels meet)
+               has each of them within a voxel of it (around a voxel corner up to eight labels meet; a label of
+               fewer than --min-label-voxels voxels stands also for the labels it touches, as cpmesh merges it)
   crossings    no two triangles that share no vertex intersect (edge-triangle tests on candidate pairs from a grid)
   conformity   the tet faces between two materials (or on the hull) are exactly the interface triangles
   labels       every label with at least --min-label-voxels voxels has tets and interface triangles; the tet volume
@@ -90,11 +91,21 @@ def read_nrrd(path):
 
 
 class LabelsNear:
-    """The labels of the voxels whose centres lie within one voxel (per axis) of a point, and 0 beyond the faces."""
+    """The labels of the voxels whose centres lie within one voxel (per axis) of a point, and 0 beyond the faces; a
+    label of fewer than min_voxels voxels (which cpmesh merges into one it touches) brings the labels it touches."""
 
-    def __init__(self, labels, dims, spacing, origin):
+    def __init__(self, labels, dims, spacing, origin, min_voxels):
         self.grid = labels.reshape(dims[2], dims[1], dims[0])
         self.dims, self.spacing, self.origin = np.array(dims), np.array(spacing), np.array(origin)
+        ids, counts = np.unique(labels, return_counts=True)
+        padded = np.pad(self.grid, 1, constant_values=0)
+        self.touching = {}
+        for label in ids[counts < min_voxels].tolist():
+            z, y, x = np.nonzero(padded == label)
+            near = set()
+            for dz, dy, dx in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+                near.update(np.unique(padded[z + dz, y + dy, x + dx]).tolist())
+            self.touching[label] = near
 
     def __call__(self, point):
         ijk = (np.asarray(point) - self.origin) / self.spacing
@@ -104,6 +115,8 @@ class LabelsNear:
             found.add(0)
         lo, hi = np.clip(lo, 0, self.dims - 1), np.clip(hi, 0, self.dims - 1)
         found.update(np.unique(self.grid[lo[2]:hi[2] + 1, lo[1]:hi[1] + 1, lo[0]:hi[0] + 1]).tolist())
+        for label in [l for l in found if l in self.touching]:
+            found |= self.touching[label]
         return found
 
 
@@ -467,7 +480,8 @@ def main(argv=None):
     try:
         volume = read_nrrd(args.volume) if args.volume else None
         sp, triangles, pairs, feature = read_vtp(args.surfaces)
-        check_surfaces(r, sp, triangles, pairs, feature, args.limit, LabelsNear(*volume) if volume else None)
+        check_surfaces(r, sp, triangles, pairs, feature, args.limit,
+                       LabelsNear(*volume, args.min_label_voxels) if volume else None)
         if r.values["radius_ratio_mean"] < args.radius_ratio_mean or r.values["radius_ratio_min"] < args.radius_ratio_min:
             r.fail("quality", f"interface radius ratio mean {r.values['radius_ratio_mean']:.3f} (at least "
                               f"{args.radius_ratio_mean}), min {r.values['radius_ratio_min']:.3f} (at least {args.radius_ratio_min})")
