@@ -71,18 +71,13 @@ std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E,
 
 // The closest point to p of the feature of exactly `materials` (ascending: a triple curve or quadruple point), when
 // it exists and lies within h of p.
-// The triple curve (three materials) or quadruple point (four) of exactly `materials` (ascending), or -1.
-int junction_feature(const fields::ClosestPointEmbedding& E, const std::vector<uint16_t>& materials) {
-  const size_t n = materials.size();
-  if (n < 3 || n > 4) return -1;
-  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-  std::copy(materials.begin(), materials.end(), key.begin());
-  return E.feature_index(n == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
-}
-
 std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p,
                                           const std::vector<uint16_t>& materials) {
-  const int f = junction_feature(E, materials);
+  const int n = int(materials.size());
+  if (n < 3 || n > 4) return std::nullopt;
+  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+  std::copy(materials.begin(), materials.end(), key.begin());
+  const int f = E.feature_index(n == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
   if (f < 0) return std::nullopt;
   const auto cp = ref::cp_lookup(E, glm::vec3(p), uint32_t(f));
   const glm::dvec3 q(glm::vec3(cp.value));
@@ -312,24 +307,27 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
       const std::vector<uint16_t> needed = fields::union_of(std::span(&own, 1), {m, o});
       if (needed.size() > kMaxJunctionMaterials) continue;
       const glm::dvec3& p = T.points[v];
-      const double radius = junction_radius(h[v], F.grid.min_spacing());
-      // A junction among the needed materials that holds what the vertex lacks, near enough: the vertex then lies
-      // on all of them (its own and such a junction's are the needed ones).
-      auto near_junction = [&](uint32_t subset) {
+      // Every junction among the needed materials that holds the ones the vertex lacks, the quadruple point first.
+      for (uint32_t subset = (1u << needed.size()) - 1; subset > 0; --subset) {
         std::vector<uint16_t> S;
         for (size_t i = 0; i < needed.size(); ++i)
           if (subset >> i & 1) S.push_back(needed[i]);
-        auto holds = [&](uint16_t x) { return own.has(x) || std::binary_search(S.begin(), S.end(), x); };
-        const int f = holds(m) && holds(o) ? junction_feature(E, S) : -1;
-        const auto on = f < 0 ? std::nullopt : closest_on_feature(F, E, p, uint32_t(f), radius, h[v]);
-        return on && glm::length(on->position - p) <= radius;
-      };
-      bool found = false;
-      for (uint32_t subset = 1; subset < (1u << needed.size()) && !found; ++subset)
-        found = near_junction(subset);
-      if (!found) continue;
-      own = fields::MaterialList(needed);
-      ++widened;
+        const bool holds_missing = (own.has(m) || std::count(S.begin(), S.end(), m)) &&
+                                   (own.has(o) || std::count(S.begin(), S.end(), o));
+        if (S.size() < 3 || !holds_missing) continue;
+        std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+        std::copy(S.begin(), S.end(), key.begin());
+        const int f = E.feature_index(S.size() == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
+        const double radius = junction_radius(h[v], F.grid.min_spacing());
+        if (f < 0) continue;
+        const auto on = closest_on_feature(F, E, p, uint32_t(f), radius, h[v]);
+        if (!on || !(glm::length(on->position - p) <= radius)) continue;
+        std::vector<uint16_t> grown = own.members();
+        grown.insert(grown.end(), S.begin(), S.end());
+        own = fields::MaterialList(std::move(grown));
+        ++widened;
+        break;
+      }
     }
   }
   return widened;

@@ -99,13 +99,13 @@ class LabelsNear:
         self.dims, self.spacing, self.origin = np.array(dims), np.array(spacing), np.array(origin)
         ids, counts = np.unique(labels, return_counts=True)
         padded = np.pad(self.grid, 1, constant_values=0)
-        z, y, x = np.nonzero(np.isin(padded, ids[counts < min_voxels]))  # one pass over the volume for all of them
-        own = padded[z, y, x]
-        touching = [np.stack([own, padded[z + dz, y + dy, x + dx]], axis=1)
-                    for dz, dy, dx in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))]
         self.touching = {}
-        for label, other in np.unique(np.concatenate(touching), axis=0).tolist() if len(own) else []:
-            self.touching.setdefault(label, set()).add(other)
+        for label in ids[counts < min_voxels].tolist():
+            z, y, x = np.nonzero(padded == label)
+            near = set()
+            for dz, dy, dx in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+                near.update(np.unique(padded[z + dz, y + dy, x + dx]).tolist())
+            self.touching[label] = near
 
     def __call__(self, point):
         ijk = (np.asarray(point) - self.origin) / self.spacing
