@@ -315,8 +315,11 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
         const bool holds_missing = (own.has(m) || std::count(S.begin(), S.end(), m)) &&
                                    (own.has(o) || std::count(S.begin(), S.end(), o));
         if (S.size() < 3 || !holds_missing) continue;
+        // A subset of five or more materials names the quadruple point of its first four: where five or more labels
+        // crowd within a voxel, that point stands for the cluster (docs/design.md, "Junctions closer than the
+        // crowding radius").
         std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-        std::copy(S.begin(), S.end(), key.begin());
+        std::copy_n(S.begin(), std::min<size_t>(S.size(), key.size()), key.begin());
         const int f = E.feature_index(S.size() == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
         const double radius = junction_radius(h[v], F.grid.min_spacing());
         if (f < 0) continue;
