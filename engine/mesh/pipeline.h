@@ -33,6 +33,7 @@
 #include "io/volume.h"
 #include "mesh/quality.h"
 #include "mesh/small_labels.h"
+#include "mesh/well_composed.h"
 #include "mesh/smooth.h"
 #include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
@@ -54,6 +55,10 @@ struct MeshOptions {
                                // are left (refine.h); each adds samples only where there is room
   // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.
   int64_t min_label_voxels = 8;
+  // Join the label map's edge-only and corner-only pairs of voxels across a face before the fields
+  // (well_composed.h); report.json says how many voxels changed. Off by default: it makes noisy-48 valid, but the
+  // meshes' worst tets move with any change of the fields (docs/corpus.md, "Well-composed labels").
+  bool well_composed = false;
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
   std::vector<std::vector<uint16_t>> materials;
@@ -101,6 +106,7 @@ struct RefinementLeft {
 struct MeshReport {
   std::vector<std::pair<std::string, double>> seconds;  // per stage
   std::vector<DroppedLabel> dropped_labels;             // labels under MeshOptions::min_label_voxels
+  WellComposedReport well_composed;                     // MeshOptions::well_composed
   std::vector<StepTime> steps;                          // the parts of "fields", "delaunay and extraction", "volume mesh"
   std::array<int64_t, 3> face_padding{0, 0, 0};  // voxels of label 0 added on each side (fields::close_at_faces)
   int subcells = 0;        // the closest point embedding's, as chosen (fields::resolve_fields_options)

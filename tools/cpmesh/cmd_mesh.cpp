@@ -37,6 +37,12 @@ nlohmann::json tet_json(const mesh::TetStats& s) {
   }
   return j;
 }
+nlohmann::json label_map_json(const mesh::WellComposedReport& r) {
+  nlohmann::json changes = nlohmann::json::array();
+  for (const auto& c : r.labels) changes.push_back({{"label", c.label}, {"gained", c.gained}, {"lost", c.lost}});
+  return {{"critical_configurations", r.critical_before}, {"critical_configurations_left", r.critical_left},
+          {"voxels_changed", r.voxels_changed}, {"passes", r.passes}, {"labels", changes}};
+}
 
 }  // namespace
 
@@ -96,6 +102,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "Labels with fewer voxels join the label they touch most (report.json: dropped_labels); 0: keep all")
       ->check(CLI::Range(int64_t(0), int64_t(1) << 40))
       ->capture_default_str();
+  sub->add_flag("--well-composed", m.well_composed,
+                "First join voxels of a label that touch only along an edge or at a corner across a face, each label "
+                "changing by at most 1% (report.json: label_map; docs/design.md, \"Well-composed labels\")");
   sub->add_option("--refinement-rounds", m.repair_rounds,
                   "Rounds of Delaunay refinement where faces are wrong or interfaces not manifold (0: none; a mesh left "
                   "invalid is an error)")
@@ -248,6 +257,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               j["dropped_labels"].push_back({{"label", d.label}, {"voxels", d.voxels}, {"merged_into", d.merged_into},
                                              {"why", "fewer than " + std::to_string(o->mesh.min_label_voxels) +
                                                          " voxels (--min-label-voxels)"}});
+            j["label_map"] = label_map_json(rep.well_composed);
             const std::vector<std::string> failures = mesh::guarantee_failures(rep);
             j["valid"] = failures.empty();
             j["invalid_because"] = failures;
@@ -284,6 +294,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu points added by refinement, %zu left\n",
                         rep.off_feature_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
                         rep.refinement_points, rep.wrong_faces);
+            if (rep.well_composed.critical_before > 0)
+              std::printf("  label map: %lld voxels changed at %lld critical configurations (edge- or corner-only "
+                          "pairs), %lld left\n",
+                          (long long)rep.well_composed.voxels_changed, (long long)rep.well_composed.critical_before,
+                          (long long)rep.well_composed.critical_left);
             for (const auto& d : rep.dropped_labels)
               std::printf("  label %u dropped: %lld voxels, fewer than %lld (--min-label-voxels); merged into %u\n",
                           d.label, (long long)d.voxels, (long long)o->mesh.min_label_voxels, d.merged_into);
