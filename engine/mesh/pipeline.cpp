@@ -168,7 +168,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   rep.dropped_labels = small_labels(chosen, census, options.min_label_voxels);
   io::LabelVolume meshed = rep.dropped_labels.empty() ? chosen : merge_labels(chosen, rep.dropped_labels);
   check_label_limit(meshed, merge_labels(census, rep.dropped_labels));  // in a moment, not after the fields
-  if (options.well_composed) rep.well_composed = make_well_composed(meshed, kProtectedLabelVoxels);
+  if (options.well_composed) rep.well_composed = make_well_composed(meshed);
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
   const int stage_count = options.only_surfaces ? 6 : 7;

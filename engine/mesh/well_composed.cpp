@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "mesh/small_labels.h"
+
 namespace cpmesh::mesh {
 namespace {
 
@@ -19,8 +21,7 @@ struct Labels {
 
   Labels(io::LabelVolume& volume, int64_t protect, double share)
       : v(volume), stride{1, volume.dims[0], volume.dims[0] * volume.dims[1]}, changed(volume.labels.size(), 0),
-        census(65536, 0), budget(65536, 0), gained(65536, 0), lost(65536, 0), protected_voxels(protect) {
-    for (uint16_t l : v.labels) ++census[l];
+        census(label_census(volume)), budget(65536, 0), gained(65536, 0), lost(65536, 0), protected_voxels(protect) {
     for (size_t l = 0; l < census.size(); ++l) budget[l] = int64_t(std::ceil(share * double(census[l])));
   }
   uint16_t at(int64_t i) const { return v.labels[size_t(i)]; }

@@ -29,6 +29,13 @@ struct WellComposedReport {
 // Edge-only pairs (one per 2 x 2 square and label) and corner-only pairs (one per cube diagonal) of `volume`.
 int64_t critical_configurations(const io::LabelVolume& volume);
 
+// A label gains at most this share of its voxels and loses at most as many: a sheet or shell one voxel thick steps
+// diagonally almost everywhere (thin-48's one-voxel CSF shell had 693 such steps, 11.5% of its 6011 voxels), and
+// joining them all would thicken it beyond the label volumes' tolerance. Its steps beyond that are left.
+constexpr double kLabelChangeShare = 0.01;
+// Labels under this many voxels give none: a small label is all staircase, and a voxel is a large part of it.
+constexpr int64_t kProtectedLabelVoxels = 64;
+
 // Removes the critical configurations of `volume` in place. For an edge-only pair of label L, one of the two other
 // voxels of its square becomes L; where both diagonals of the square are pairs (a checkerboard), the label with fewer
 // voxels in the 4 x 4 x 4 box around the square is the one joined, as it is the thin one (a sheet or a tube's wall
@@ -37,12 +44,6 @@ int64_t critical_configurations(const io::LabelVolume& volume);
 // for the next pass. A voxel changes at most once, never one with no face neighbour of its own label (an island of one
 // voxel), never one of a label under `protected_voxels` voxels, and no label changes by more than `change_share` of
 // its voxels (rounded up), so the passes end and the label volumes stay.
-// A label gains at most this share of its voxels and loses at most as many: a sheet or shell one voxel thick steps
-// diagonally almost everywhere (thin-48's one-voxel CSF shell had 693 such steps, 11.5% of its 6011 voxels), and
-// joining them all would thicken it beyond the label volumes' tolerance. Its steps beyond that are left.
-constexpr double kLabelChangeShare = 0.01;
-// Labels under this many voxels give none: a small label is all staircase, and a voxel is a large part of it.
-constexpr int64_t kProtectedLabelVoxels = 64;
 WellComposedReport make_well_composed(io::LabelVolume& volume, int64_t protected_voxels = kProtectedLabelVoxels,
                                       double change_share = kLabelChangeShare);
 

@@ -2,20 +2,11 @@
 // voxel count, and a small label does not join another small one while a kept one touches it.
 #include <doctest/doctest.h>
 
+#include "label_maps.h"
 #include "mesh/small_labels.h"
 
 using namespace cpmesh;
-
-namespace {
-
-io::LabelVolume block(int64_t n, uint16_t fill) {
-  io::LabelVolume v;
-  v.dims = {n, n, n};
-  v.labels.assign(size_t(n * n * n), fill);
-  return v;
-}
-
-}  // namespace
+using cpmesh::test::block;
 
 TEST_CASE("small labels join the label they touch most, and are listed") {
   io::LabelVolume v = block(8, 1);

@@ -7,21 +7,15 @@
 #include <map>
 
 #include "io/synth_corpus.h"
-#include "label_components.h"
+#include "label_maps.h"
 #include "mesh/small_labels.h"
 #include "mesh/well_composed.h"
 
 using namespace cpmesh;
+using cpmesh::test::block;
 using cpmesh::test::components;
 
 namespace {
-
-io::LabelVolume block(int64_t n, uint16_t fill) {
-  io::LabelVolume v;
-  v.dims = {n, n, n};
-  v.labels.assign(size_t(n * n * n), fill);
-  return v;
-}
 
 void set(io::LabelVolume& v, int64_t i, int64_t j, int64_t k, uint16_t l) { v.labels[v.index(i, j, k)] = l; }
 uint16_t at(const io::LabelVolume& v, int64_t i, int64_t j, int64_t k) { return v.labels[v.index(i, j, k)]; }

@@ -9,7 +9,7 @@
 
 #include "io/synth_corpus.h"
 #include "io/volume_info.h"
-#include "label_components.h"
+#include "label_maps.h"
 
 using namespace cpmesh::io;
 using cpmesh::test::components;

@@ -1,5 +1,6 @@
 #pragma once
-// The 6-connected components of a label, for the tests of label maps (the corpus, the well-composed repair).
+// Label maps for the tests (small labels, the corpus, the well-composed repair): uniform blocks and the 6-connected
+// components of a label.
 #include <algorithm>
 #include <cstdint>
 #include <vector>
@@ -7,6 +8,14 @@
 #include "io/volume.h"
 
 namespace cpmesh::test {
+
+// An n^3 label map of one label.
+inline io::LabelVolume block(int64_t n, uint16_t fill) {
+  io::LabelVolume v;
+  v.dims = {n, n, n};
+  v.labels.assign(size_t(n * n * n), fill);
+  return v;
+}
 
 // Sizes of the 6-connected components of `label`.
 inline std::vector<int64_t> components(const io::LabelVolume& v, uint16_t label) {
