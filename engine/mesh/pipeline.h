@@ -56,9 +56,9 @@ struct MeshOptions {
   // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.
   int64_t min_label_voxels = 8;
   // Join the label map's edge-only and corner-only pairs of voxels across a face before the fields
-  // (well_composed.h); report.json says how many voxels changed. Off by default: it makes noisy-48 valid, but the
-  // meshes' worst tets move with any change of the fields (docs/corpus.md, "Well-composed labels").
-  bool well_composed = false;
+  // (well_composed.h); report.json says how many voxels changed. Without it noisy-48's saddles at such pairs leave
+  // wrong faces (docs/corpus.md, "Well-composed labels").
+  bool well_composed = true;
   // Materials to mesh (empty: every label). Each group keeps its first label and merges the others into it; labels in
   // no group become 0, the background. A label not in the volume is an error.
   std::vector<std::vector<uint16_t>> materials;
@@ -115,6 +115,7 @@ struct MeshReport {
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
   size_t off_feature_particles = 0;  // particles left out for lying off their feature (particles::drop_off_feature)
+  size_t crowded_particles = 0;  // particles left out for crowding a neighbour on their feature (particles::thin_crowded)
   int iterations = 0;
   bool settled = false, steady = false;
   size_t delaunay_tets = 0;

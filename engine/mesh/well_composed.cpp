@@ -168,6 +168,7 @@ int64_t critical_configurations(const io::LabelVolume& v) {
 
 WellComposedReport make_well_composed(io::LabelVolume& volume, int64_t protected_voxels, double change_share) {
   WellComposedReport rep;
+  rep.applied = true;
   rep.critical_before = critical_configurations(volume);
   if (rep.critical_before == 0) return rep;
   Labels s(volume, protected_voxels, change_share);

@@ -19,6 +19,7 @@ struct LabelChange {
 };
 
 struct WellComposedReport {
+  bool applied = false;         // the repair ran (MeshOptions::well_composed)
   int64_t critical_before = 0;  // critical configurations in the label map as given
   int64_t critical_left = 0;    // those no allowed change removes (a voxel changes once; islands keep theirs)
   int64_t voxels_changed = 0;

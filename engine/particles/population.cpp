@@ -633,6 +633,23 @@ size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::Clo
   return remove_flagged(population, drop);
 }
 
+size_t thin_crowded(const fields::ClosestPointEmbedding& E, Population& population, double share) {
+  const size_t n = population.particles.size();
+  if (n == 0 || share <= 0) return 0;
+  float h_max = 0;
+  for (const glm::vec4& p : population.particles) h_max = std::max(h_max, p.w);
+  HostIndex kept(E, std::max(double(share) * h_max, 1e-6));
+  std::vector<uint8_t> drop(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const glm::vec4& p = population.particles[i];
+    const uint32_t f = population.features[i];
+    drop[i] = E.features[f].kind != fields::FeatureKind::quadruple_point &&
+              kept.nearest(glm::vec3(p), f, float(share * double(p.w))).has_value();
+    if (!drop[i]) kept.insert(p, f);
+  }
+  return remove_flagged(population, drop);
+}
+
 size_t protect_junctions(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E,
                          Population& population, double rho) {
   if (rho <= 0) return 0;

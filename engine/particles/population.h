@@ -255,4 +255,12 @@ size_t protect_junctions(const fields::IndicatorFields& fields, const fields::Cl
 size_t drop_off_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& embedding,
                         Population& population, double share);
 
+// Removes every particle (but quadruple points) closer than `share` x its h to an earlier particle of the same
+// feature, keeping the first of each crowded group in population order. The energy keeps neighbours about h apart,
+// but a feature too small for the particles it holds (a 2-voxel island with 6 particles, a thin tube's lumen) packs
+// them a few hundredths of a voxel apart, where the adds and deletes stop (a feature keeps min_feature_particles), and
+// two samples that close on one surface make near-flat tets between them (islands-48: a 0.3 h pair gave the volume's
+// worst tet). Returns the count removed; the order of the rest is kept.
+size_t thin_crowded(const fields::ClosestPointEmbedding& embedding, Population& population, double share);
+
 }  // namespace cpmesh::particles

@@ -99,6 +99,7 @@ TEST_CASE("a well-composed label map is left as it is") {
       for (int64_t k = 0; k < 8; ++k) set(v, i, j, k, 2);
   const io::LabelVolume before = v;
   const auto rep = mesh::make_well_composed(v);
+  CHECK(rep.applied);
   CHECK(rep.critical_before == 0);
   CHECK(rep.voxels_changed == 0);
   CHECK(rep.passes == 0);

@@ -40,7 +40,7 @@ nlohmann::json tet_json(const mesh::TetStats& s) {
 nlohmann::json label_map_json(const mesh::WellComposedReport& r) {
   nlohmann::json changes = nlohmann::json::array();
   for (const auto& c : r.labels) changes.push_back({{"label", c.label}, {"gained", c.gained}, {"lost", c.lost}});
-  return {{"critical_configurations", r.critical_before}, {"critical_configurations_left", r.critical_left},
+  return {{"well_composed_repair", r.applied}, {"critical_configurations", r.critical_before}, {"critical_configurations_left", r.critical_left},
           {"voxels_changed", r.voxels_changed}, {"passes", r.passes}, {"labels", changes}};
 }
 
@@ -102,9 +102,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "Labels with fewer voxels join the label they touch most (report.json: dropped_labels); 0: keep all")
       ->check(CLI::Range(int64_t(0), int64_t(1) << 40))
       ->capture_default_str();
-  sub->add_flag("--well-composed", m.well_composed,
-                "First join voxels of a label that touch only along an edge or at a corner across a face, each label "
-                "changing by at most 1% (report.json: label_map; docs/design.md, \"Well-composed labels\")");
+  sub->add_flag("!--no-well-composed", m.well_composed,
+                "Mesh the label map as given; by default voxels of a label that touch only along an edge or at a "
+                "corner are first joined across a face, each label changing by at most 1% (report.json: label_map; "
+                "docs/design.md, \"Well-composed labels\")");
   sub->add_option("--refinement-rounds", m.repair_rounds,
                   "Rounds of Delaunay refinement where faces are wrong or interfaces not manifold (0: none; a mesh left "
                   "invalid is an error)")
@@ -219,6 +220,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["surface_away_from_junctions"] = triangle_json(rep.other_triangles);
             j["protected_particles"] = rep.protected_particles;
             j["off_feature_particles"] = rep.off_feature_particles;
+            j["crowded_particles"] = rep.crowded_particles;
             j["smoothing_moves"] = rep.smoothing_moves;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
@@ -290,9 +292,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("  triangles at junctions: %zu, mean radius ratio %.3f; elsewhere: %zu, %.3f\n",
                         rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
                         rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
-            std::printf("  particles left out: %zu off their feature; junctions: %zu interface particles left out "
+            std::printf("  particles left out: %zu off their feature, %zu crowding a neighbour; junctions: %zu interface particles left out "
                         "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu points added by refinement, %zu left\n",
-                        rep.off_feature_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
+                        rep.off_feature_particles, rep.crowded_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
                         rep.refinement_points, rep.wrong_faces);
             if (rep.well_composed.critical_before > 0)
               std::printf("  label map: %lld voxels changed at %lld critical configurations (edge- or corner-only "
