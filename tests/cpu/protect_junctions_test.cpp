@@ -1,5 +1,5 @@
-// particles::protect_junctions: interface particles within rho x h of a bounding triple curve or quadruple point are
-// removed, others (and every curve particle) kept.
+// particles::protect_junctions and particles::thin_crowded: interface particles within rho x h of a bounding triple
+// curve or quadruple point are removed, others (and every curve particle) kept; crowded particles of one feature thinned.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -129,4 +129,31 @@ TEST_CASE("drop_off_feature: particles off their feature go, those on it stay in
   // A share of 0: only a particle exactly on its feature would stay; these are within 0.01 voxel, not exactly on.
   particles::Population strict = before;
   CHECK(particles::drop_off_feature(F.fields, E, strict, 0.0) >= 6);
+}
+
+TEST_CASE("thin_crowded: of particles of one feature closer than share x h, the first stays") {
+  const auto& E = wedge_ball_64().fields.embedding;
+  const int plane = E.feature_index(FeatureKind::interface, {1, 2, 0xffff, 0xffff});
+  const int axis = E.feature_index(FeatureKind::triple_curve, {1, 2, 3, 0xffff});
+  REQUIRE(plane >= 0);
+  REQUIRE(axis >= 0);
+  const float h = 2.0f;  // share 0.5: closer than 1 voxel is crowded
+  particles::Population P;
+  auto add = [&](float x, int feature) {
+    P.particles.push_back(glm::vec4(20.0f + x, 30.0f, 30.0f, h));
+    P.features.push_back(uint32_t(feature));
+  };
+  add(0.0f, plane);  // kept: the first
+  add(0.5f, plane);  // 0.5 from the first: left out
+  add(0.1f, axis);   // as close, but another feature: kept
+  add(1.5f, plane);  // 1.5 from the first (the one left out does not count): kept
+  add(2.2f, plane);  // 0.7 from the one before: left out
+  add(3.4f, plane);  // 1.2 from the nearest kept: kept
+  CHECK(particles::thin_crowded(E, P, 0.5) == 2);
+  REQUIRE(P.particles.size() == 4);
+  CHECK(P.particles[0].x == doctest::Approx(20.0));
+  CHECK(P.features[1] == uint32_t(axis));
+  CHECK(P.particles[2].x == doctest::Approx(21.5));
+  CHECK(P.particles[3].x == doctest::Approx(23.4));
+  CHECK(particles::thin_crowded(E, P, 0.0) == 0);
 }
