@@ -40,8 +40,12 @@ nlohmann::json tet_json(const mesh::TetStats& s) {
 nlohmann::json label_map_json(const mesh::WellComposedReport& r) {
   nlohmann::json changes = nlohmann::json::array();
   for (const auto& c : r.labels) changes.push_back({{"label", c.label}, {"gained", c.gained}, {"lost", c.lost}});
-  return {{"well_composed_repair", r.applied}, {"critical_configurations", r.critical_before}, {"critical_configurations_left", r.critical_left},
-          {"voxels_changed", r.voxels_changed}, {"passes", r.passes}, {"labels", changes}};
+  return {{"well_composed_repair", r.applied},
+          {"critical_configurations", r.critical_before},
+          {"critical_configurations_left", r.critical_left},
+          {"voxels_changed", r.voxels_changed},
+          {"passes", r.passes},
+          {"labels", changes}};
 }
 
 }  // namespace
@@ -292,10 +296,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("  triangles at junctions: %zu, mean radius ratio %.3f; elsewhere: %zu, %.3f\n",
                         rep.junction_triangles.triangles, rep.junction_triangles.mean_radius_ratio,
                         rep.other_triangles.triangles, rep.other_triangles.mean_radius_ratio);
-            std::printf("  particles left out: %zu off their feature, %zu crowding a neighbour; junctions: %zu interface particles left out "
-                        "(protection); repair: %zu wrong faces, %zu tets relabelled, %zu points added by refinement, %zu left\n",
-                        rep.off_feature_particles, rep.crowded_particles, rep.protected_particles, rep.wrong_faces_before_repair, rep.relabelled_tets,
-                        rep.refinement_points, rep.wrong_faces);
+            std::printf("  particles left out: %zu off their feature, %zu crowding a neighbour; junctions: %zu "
+                        "interface particles left out (protection); repair: %zu wrong faces, %zu tets relabelled, %zu "
+                        "points added by refinement, %zu left\n",
+                        rep.off_feature_particles, rep.crowded_particles, rep.protected_particles,
+                        rep.wrong_faces_before_repair, rep.relabelled_tets, rep.refinement_points, rep.wrong_faces);
             if (rep.well_composed.critical_before > 0)
               std::printf("  label map: %lld voxels changed at %lld critical configurations (edge- or corner-only "
                           "pairs), %lld left\n",
