@@ -646,3 +646,44 @@ TEST_CASE("check_blocks sees the embedding's block count before its fine points,
   MESSAGE("refused after " << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
                            << " s; the whole fields took " << r.report.embedding_seconds << " s of embedding");
 }
+
+TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
+  // Label 2, one voxel thick and stepping across x like a falx (x = round(15 + 1.5 sin(y / 5))), inside label 1 and
+  // ending on a one-voxel layer of 3 under 4 (the CSF under the skull). A block's fine points lie on both sides of
+  // the sheet and inside it; each must find the nearer of the sheet's two sides. A projection started from the
+  // block's previous closest point keeps that point's side: 325 of the 8056 points on the sheet's +x side and
+  // within it took a point on its -x side, a voxel away instead of a twentieth.
+  auto sheet_x = [](int j) { return int(std::lround(15 + 1.5 * std::sin(j / 5.0))); };
+  const io::LabelVolume v = test::label_volume(32, 32, 20, [&](int i, int j, int k) {
+    return k > 14 ? 4 : k == 14 ? 3 : i == sheet_x(j) ? 2 : 1;
+  });
+  const Grid grid = grid_of(v);
+  const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
+  const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
+  const int f12 = E.feature_index(FeatureKind::interface, {0, 1, 0xffff, 0xffff});
+  REQUIRE(f12 >= 0);
+  const int sub = E.sub, per_block = sub * sub * sub;
+  // Per side: fine points on or beyond a face of the sheet's voxels (rows clear of its steps and of the layer of 3),
+  // and those whose closest point is on the other side.
+  size_t beside[2] = {0, 0}, across[2] = {0, 0};
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != f12) continue;
+    const glm::ivec3 c = grid.voxel(size_t(E.keys[slot] >> 16));
+    for (int q = 0; q < per_block; ++q) {
+      const glm::dvec3 x = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
+      const double centre = sheet_x(int(std::lround(x.y)));
+      const double off = x.x - centre;
+      if (std::abs(off) < 0.5 || std::abs(x.y - std::round(x.y)) > 0.3 || x.z > 13.5) continue;
+      const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * size_t(per_block) + size_t(q)]));
+      const int side = off > 0;
+      ++beside[side];
+      across[side] += (cp.x - centre) * off < 0 && std::abs(cp.x - centre) > 0.05;
+    }
+  }
+  MESSAGE("fine points on the sheet's faces and beyond, per side: ", beside[0], " / ", beside[1], ", closest point across it: ", across[0], " / ",
+          across[1]);
+  REQUIRE(beside[0] > 100);
+  REQUIRE(beside[1] > 100);
+  CHECK(across[0] <= beside[0] / 100);
+  CHECK(across[1] <= beside[1] / 100);
+}
