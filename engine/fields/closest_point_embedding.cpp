@@ -518,10 +518,10 @@ bool farther_than_nearest(const IndicatorFields& F, const Feature& feature, cons
 
 // A start for x0's projection onto interface `feature` on the nearest side of it: where the field difference first
 // changes sign along a straight walk from x0 down its gradient (steps of a tenth of a voxel, up to kSideWalk voxels,
-// then bisection). Newton from x0 itself can overshoot a sheet thinner than its step; the walk cannot. False where
-// the walk finds no change.
+// then bisection). Newton from x0 itself can overshoot a sheet thinner than its step; the walk cannot overshoot one
+// thicker than a tenth of a voxel. False where the walk finds no change.
 constexpr double kSideWalk = 4.0;
-bool start_on_own_side(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out) {
+bool start_on_nearest_side(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out) {
   int m[4];
   if (materials_of(feature, m) != 2) return false;
   auto difference = [&](const glm::dvec3& x, glm::dvec3* grad) {
@@ -631,7 +631,7 @@ void take_nearer_side(const IndicatorFields& F, const Feature& feature, const gl
                       glm::dvec3* gradients, uint64_t& steps) {
   glm::dvec3 start, nearer, g[4];
   double own_nearer = 0;
-  if (!start_on_own_side(F, feature, x0, start) ||
+  if (!start_on_nearest_side(F, feature, x0, start) ||
       !project_from(F, feature, x0, nearer, options.newton_iterations, options.closest_point_rounds, &start, nullptr,
                     give_up_stagnating, false, &own_nearer, g, &steps) ||
       !(glm::length(nearer - x0) < glm::length(cp - x0)))
