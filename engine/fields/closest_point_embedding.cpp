@@ -500,52 +500,36 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 
 namespace {
 
-// Whether c, x0's projection onto interface `feature`, lies farther from x0 than the fields say the interface is:
-// near it the field difference f = f_m0 - f_m1 changes by about |grad f| per unit length, so |f| / |grad f| at x0
-// estimates that distance. A projection warm-started from the previous fine point's closest point keeps that point's
-// sheet: where a one-voxel sheet (a falx, a CSF layer) lies between a block's fine points, the points on one side and
-// inside it took the other side's points (the one-voxel-sheet test: 325 of 8056 fine points, a voxel off instead of a
-// twentieth), and that side of the sheet got no seeds and no particles.
-bool farther_than_nearest(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, const glm::dvec3& c) {
-  int m[4];
-  if (materials_of(feature, m) != 2) return false;
+// The difference f = f_m0 - f_m1 of an interface's two fields at x, and its gradient (local units).
+double interface_difference(const IndicatorFields& F, const int* m, const glm::dvec3& x, glm::dvec3& grad) {
   double f[2];
   glm::dvec3 g[2];
-  sample_feature_fields(F, m, 2, x0, f, g);
-  const double slope = glm::length((g[0] - g[1]) / F.grid.spacing);
-  return slope > 0 && glm::length(x0 - c) > 1.5 * std::abs(f[0] - f[1]) / slope + 0.1 * F.grid.min_spacing();
+  sample_feature_fields(F, m, 2, x, f, g);
+  grad = (g[0] - g[1]) / F.grid.spacing;
+  return f[0] - f[1];
 }
 
-// A start for x0's projection onto interface `feature` on the nearest side of it: where the field difference first
-// changes sign along a straight walk from x0 down its gradient (steps of a tenth of a voxel, up to kSideWalk voxels,
-// then bisection). Newton from x0 itself can overshoot a sheet thinner than its step; the walk cannot overshoot one
-// thicker than a tenth of a voxel. False where the walk finds no change.
+// Where the interface difference (value v0 and gradient grad0 at x0) first changes sign along a straight walk from
+// x0 down the gradient (steps of a tenth of a voxel, up to kSideWalk voxels, then bisection): a start on the
+// interface's nearest side. Newton from x0 itself can overshoot a sheet thinner than its step; the walk cannot
+// overshoot one thicker than a tenth of a voxel. False where the walk finds no change.
 constexpr double kSideWalk = 4.0;
-bool start_on_nearest_side(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0, glm::dvec3& out) {
-  int m[4];
-  if (materials_of(feature, m) != 2) return false;
-  auto difference = [&](const glm::dvec3& x, glm::dvec3* grad) {
-    double f[2];
-    glm::dvec3 g[2];
-    sample_feature_fields(F, m, 2, x, f, g);
-    if (grad) *grad = (g[0] - g[1]) / F.grid.spacing;
-    return f[0] - f[1];
-  };
-  glm::dvec3 grad;
-  const double v0 = difference(x0, &grad);
-  if (!(glm::length(grad) > 1e-12) || v0 == 0) return false;
-  const double voxel = F.grid.min_spacing();
-  const glm::dvec3 step = glm::normalize(grad) * (v0 > 0 ? -0.1 : 0.1) * voxel;
+bool start_on_nearest_side(const IndicatorFields& F, const int* m, const glm::dvec3& x0, double v0,
+                           const glm::dvec3& grad0, glm::dvec3& out) {
+  if (v0 == 0) return false;
+  glm::dvec3 unused;
+  auto same_sign = [&](const glm::dvec3& x) { return interface_difference(F, m, x, unused) * v0 > 0; };
+  const glm::dvec3 step = glm::normalize(grad0) * (v0 > 0 ? -0.1 : 0.1) * F.grid.min_spacing();
   glm::dvec3 lo = x0;
   for (int i = 1; i <= int(kSideWalk * 10); ++i) {
     glm::dvec3 hi = x0 + step * double(i);
-    if (difference(hi, nullptr) * v0 > 0) {
+    if (same_sign(hi)) {
       lo = hi;
       continue;
     }
     for (int k = 0; k < 10; ++k) {
       const glm::dvec3 mid = 0.5 * (lo + hi);
-      (difference(mid, nullptr) * v0 > 0 ? lo : hi) = mid;
+      (same_sign(mid) ? lo : hi) = mid;
     }
     out = 0.5 * (lo + hi);
     return true;
@@ -623,15 +607,26 @@ bool project_from(const IndicatorFields& F, const Feature& feature, const glm::d
   return ok;
 }
 
-// Where x0's projection cp onto an interface is farther than the interface (farther_than_nearest), the
-// projection from a start on the nearest side, kept when it is nearer: cp, own (f of the first material there) and
-// gradients (4 entries) take its values.
+// x0's projection cp onto an interface, replaced by the projection from a start on the interface's nearest side
+// (start_on_nearest_side) where cp lies farther from x0 than the fields say the interface is, and that one is
+// nearer: cp, own (f of the first material there) and gradients (4 entries) then take its values. Near the
+// interface the difference f changes by about |grad f| per unit length, so |f| / |grad f| at x0 estimates the
+// distance. A projection warm-started from the previous fine point's closest point keeps that point's sheet: where
+// a one-voxel sheet (a falx, a CSF layer) lies between a block's fine points, the points on one side and inside it
+// took the other side's points (the one-voxel-sheet test: 325 of 8056 fine points, a voxel off instead of a
+// twentieth), and that side of the sheet got no seeds and no particles.
 void take_nearer_side(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0,
                       const EmbeddingOptions& options, bool give_up_stagnating, glm::dvec3& cp, double& own,
                       glm::dvec3* gradients, uint64_t& steps) {
+  int m[4];
+  if (materials_of(feature, m) != 2) return;
+  glm::dvec3 grad;
+  const double v0 = interface_difference(F, m, x0, grad);
+  const double slope = glm::length(grad);
+  if (!(slope > 0) || glm::length(x0 - cp) <= 1.5 * std::abs(v0) / slope + 0.1 * F.grid.min_spacing()) return;
   glm::dvec3 start, nearer, g[4];
   double own_nearer = 0;
-  if (!start_on_nearest_side(F, feature, x0, start) ||
+  if (!start_on_nearest_side(F, m, x0, v0, grad, start) ||
       !project_from(F, feature, x0, nearer, options.newton_iterations, options.closest_point_rounds, &start, nullptr,
                     give_up_stagnating, false, &own_nearer, g, &steps) ||
       !(glm::length(nearer - x0) < glm::length(cp - x0)))
@@ -924,7 +919,7 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
                                  from_warm ? &warm : nullptr, from_warm && warm_gradients_ok ? warm_gradients : nullptr,
                                  curves_only, nudge && previous_failed, &own, level == 0 ? gradients : nullptr,
                                  &steps);
-          if (ok && level == 0 && feat.kind == FeatureKind::interface && farther_than_nearest(F, feat, x0, cp))
+          if (ok && level == 0 && feat.kind == FeatureKind::interface)
             take_nearer_side(F, feat, x0, options, curves_only, cp, own, gradients, steps);
           // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
           // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
