@@ -607,26 +607,53 @@ bool project_from(const IndicatorFields& F, const Feature& feature, const glm::d
   return ok;
 }
 
-// x0's projection cp onto an interface, replaced by the projection from a start on the interface's nearest side
-// (start_on_nearest_side) where cp lies farther from x0 than the fields say the interface is, and that one is
-// nearer: cp, own (f of the first material there) and gradients (4 entries) then take its values. Near the
-// interface the difference f changes by about |grad f| per unit length, so |f| / |grad f| at x0 estimates the
-// distance. A projection warm-started from the previous fine point's closest point keeps that point's sheet: where
-// a one-voxel sheet (a falx, a CSF layer) lies between a block's fine points, the points on one side and inside it
+// The smallest step from x0 onto the feature's linearization at x0 (an interface: f_m0 - f_m1 = 0; a triple curve:
+// f_m0 - f_m1 = f_m0 - f_m2 = 0), the differences' value and gradient at x0 in v and grad; false where the gradients
+// vanish or are parallel. Near the feature the differences change by about their gradients per unit length, so the
+// step's length estimates the distance to the feature's nearest sheet or curve.
+bool linearized_step(const IndicatorFields& F, const int* m, int count, const glm::dvec3& x0, glm::dvec3& step,
+                     double v[2], glm::dvec3 grad[2]) {
+  double f[3];
+  glm::dvec3 g[3];
+  sample_feature_fields(F, m, count, x0, f, g);
+  for (int a = 0; a + 1 < count; ++a) v[a] = f[0] - f[a + 1], grad[a] = (g[0] - g[a + 1]) / F.grid.spacing;
+  if (count == 2) {
+    const double gg = glm::dot(grad[0], grad[0]);
+    step = -grad[0] * (v[0] / gg);
+    return gg > 0;
+  }
+  // Two constraints: d = -J^T (J J^T)^-1 v.
+  const double aa = glm::dot(grad[0], grad[0]), ab = glm::dot(grad[0], grad[1]), bb = glm::dot(grad[1], grad[1]);
+  const double det = aa * bb - ab * ab;
+  if (!(det > 1e-12 * aa * bb)) return false;
+  const double la = (bb * v[0] - ab * v[1]) / det, lb = (aa * v[1] - ab * v[0]) / det;
+  step = -(la * grad[0] + lb * grad[1]);
+  return true;
+}
+
+// x0's projection cp onto an interface or a triple curve, replaced by a projection from a start near x0 where cp lies
+// farther from x0 than the fields' linearization says the feature is (linearized_step), and that one is nearer: cp,
+// own (f of the first material there) and gradients (4 entries) then take its values. The start is, for an interface,
+// the sign change on a walk down the gradient (start_on_nearest_side), for a curve the linearized foot x0 + step.
+// A projection warm-started from the previous fine point's closest point keeps that point's sheet or curve: where a
+// one-voxel sheet (a falx, a CSF layer) lies between a block's fine points, the points on one side and inside it
 // took the other side's points (the one-voxel-sheet test: 325 of 8056 fine points, a voxel off instead of a
-// twentieth), and that side of the sheet got no seeds and no particles.
-void take_nearer_side(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0,
-                      const EmbeddingOptions& options, bool give_up_stagnating, glm::dvec3& cp, double& own,
-                      glm::dvec3* gradients, uint64_t& steps) {
+// twentieth), and that side of the sheet got no seeds and no particles; where such a sheet ends on a layer, its two
+// triple curves are one feature a voxel apart, and one of them lost its points the same way (the falx-end test).
+void take_nearer_projection(const IndicatorFields& F, const Feature& feature, const glm::dvec3& x0,
+                            const EmbeddingOptions& options, bool give_up_stagnating, glm::dvec3& cp, double& own,
+                            glm::dvec3* gradients, uint64_t& steps) {
   int m[4];
-  if (materials_of(feature, m) != 2) return;
-  glm::dvec3 grad;
-  const double v0 = interface_difference(F, m, x0, grad);
-  const double slope = glm::length(grad);
-  if (!(slope > 0) || glm::length(x0 - cp) <= 1.5 * std::abs(v0) / slope + 0.1 * F.grid.min_spacing()) return;
-  glm::dvec3 start, nearer, g[4];
+  const int count = materials_of(feature, m);
+  if (count != 2 && count != 3) return;
+  glm::dvec3 step, grad[2];
+  double v[2];
+  if (!linearized_step(F, m, count, x0, step, v, grad) ||
+      glm::length(x0 - cp) <= 1.5 * glm::length(step) + 0.1 * F.grid.min_spacing())
+    return;
+  glm::dvec3 start = x0 + step, nearer, g[4];
   double own_nearer = 0;
-  if (!start_on_nearest_side(F, m, x0, v0, grad, start) ||
+  if ((count == 2 && !start_on_nearest_side(F, m, x0, v[0], grad[0], start)) ||
       !project_from(F, feature, x0, nearer, options.newton_iterations, options.closest_point_rounds, &start, nullptr,
                     give_up_stagnating, false, &own_nearer, g, &steps) ||
       !(glm::length(nearer - x0) < glm::length(cp - x0)))
@@ -919,8 +946,8 @@ ClosestPointEmbedding build_embedding(const IndicatorFields& F, const EmbeddingO
                                  from_warm ? &warm : nullptr, from_warm && warm_gradients_ok ? warm_gradients : nullptr,
                                  curves_only, nudge && previous_failed, &own, level == 0 ? gradients : nullptr,
                                  &steps);
-          if (ok && level == 0 && feat.kind == FeatureKind::interface)
-            take_nearer_side(F, feat, x0, options, curves_only, cp, own, gradients, steps);
+          if (ok && level == 0 && feat.kind != FeatureKind::quadruple_point)
+            take_nearer_projection(F, feat, x0, options, curves_only, cp, own, gradients, steps);
           // Newton fails where the constraints' gradients vanish: on a medial surface, equally far from two sheets
           // of the feature (the middle of a layer three voxels thick). Any sheet's point will do there; what Newton
           // left behind is not on the feature at all. Starts nudged a third of a voxel along each axis find one.
