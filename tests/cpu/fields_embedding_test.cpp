@@ -656,6 +656,20 @@ io::LabelVolume falx_volume() {
   return test::label_volume(32, 32, 20, [&](int i, int j, int k) { return k > 14 ? 4 : k == 14 ? 3 : i == falx_x(j) ? 2 : 1; });
 }
 
+// Calls fn(x, cp) for every fine point x (voxel-index coordinates) of the feature's blocks and its closest point cp.
+template <class Fn>
+void for_each_fine_point(const ClosestPointEmbedding& E, const Grid& grid, int feature, Fn fn) {
+  const int sub = E.sub, per_block = sub * sub * sub;
+  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+    if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != feature) continue;
+    const glm::ivec3 c = grid.voxel(size_t(E.keys[slot] >> 16));
+    for (int q = 0; q < per_block; ++q) {
+      const glm::dvec3 x = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
+      fn(x, glm::dvec3(glm::vec3(E.fine[size_t(E.blocks[slot]) * size_t(per_block) + size_t(q)])));
+    }
+  }
+}
+
 }  // namespace
 
 TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
@@ -669,24 +683,17 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
   const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
   const int f12 = E.feature_index(FeatureKind::interface, {0, 1, 0xffff, 0xffff});
   REQUIRE(f12 >= 0);
-  const int sub = E.sub, per_block = sub * sub * sub;
   // Per side: fine points on or beyond a face of the sheet's voxels (rows clear of its steps and of the layer of 3),
   // and those whose closest point is on the other side.
   size_t beside[2] = {0, 0}, across[2] = {0, 0};
-  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
-    if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != f12) continue;
-    const glm::ivec3 c = grid.voxel(size_t(E.keys[slot] >> 16));
-    for (int q = 0; q < per_block; ++q) {
-      const glm::dvec3 x = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
-      const double centre = sheet_x(int(std::lround(x.y)));
-      const double off = x.x - centre;
-      if (std::abs(off) < 0.5 || std::abs(x.y - std::round(x.y)) > 0.3 || x.z > 13.5) continue;
-      const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * size_t(per_block) + size_t(q)]));
-      const int side = off > 0;
-      ++beside[side];
-      across[side] += (cp.x - centre) * off < 0 && std::abs(cp.x - centre) > 0.05;
-    }
-  }
+  for_each_fine_point(E, grid, f12, [&](const glm::dvec3& x, const glm::dvec3& cp) {
+    const double centre = sheet_x(int(std::lround(x.y)));
+    const double off = x.x - centre;
+    if (std::abs(off) < 0.5 || std::abs(x.y - std::round(x.y)) > 0.3 || x.z > 13.5) return;
+    const int side = off > 0;
+    ++beside[side];
+    across[side] += (cp.x - centre) * off < 0 && std::abs(cp.x - centre) > 0.05;
+  });
   MESSAGE("fine points on the sheet's faces and beyond, per side: ", beside[0], " / ", beside[1], ", closest point across it: ", across[0], " / ",
           across[1]);
   REQUIRE(beside[0] > 100);
@@ -707,26 +714,19 @@ TEST_CASE("the two triple curves where a one-voxel sheet ends on a layer both ke
   const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
   const int curve = E.feature_index(FeatureKind::triple_curve, {0, 1, 2, 0xffff});
   REQUIRE(curve >= 0);
-  const int sub = E.sub, per_block = sub * sub * sub;
   // Per side: fine points at least half a voxel beside the sheet's centre and within a voxel of the layer's lower
   // face (rows clear of its steps), and those whose closest point lies on the other side of the centre. (Farther
   // out the two curves are nearly as far: 3 voxels below the layer, 3.0 against 3.16.)
   size_t beside[2] = {0, 0}, across[2] = {0, 0};
-  for (size_t slot = 0; slot < E.keys.size(); ++slot) {
-    if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != curve) continue;
-    const glm::ivec3 c = grid.voxel(size_t(E.keys[slot] >> 16));
-    for (int q = 0; q < per_block; ++q) {
-      const glm::dvec3 x = glm::dvec3(c) + glm::dvec3(q % sub, (q / sub) % sub, q / (sub * sub)) / double(sub);
-      const int row = int(std::lround(x.y));
-      if (falx_x(row - 1) != falx_x(row) || falx_x(row + 1) != falx_x(row)) continue;
-      const double centre = falx_x(row), off = x.x - centre;
-      if (std::abs(off) < 0.5 || std::abs(x.z - 13.5) > 1.0) continue;
-      const glm::dvec3 cp(glm::vec3(E.fine[size_t(E.blocks[slot]) * size_t(per_block) + size_t(q)]));
-      const int side = off > 0;
-      ++beside[side];
-      across[side] += (cp.x - centre) * off < 0;
-    }
-  }
+  for_each_fine_point(E, grid, curve, [&](const glm::dvec3& x, const glm::dvec3& cp) {
+    const int row = int(std::lround(x.y));
+    if (falx_x(row - 1) != falx_x(row) || falx_x(row + 1) != falx_x(row)) return;
+    const double centre = falx_x(row), off = x.x - centre;
+    if (std::abs(off) < 0.5 || std::abs(x.z - 13.5) > 1.0) return;
+    const int side = off > 0;
+    ++beside[side];
+    across[side] += (cp.x - centre) * off < 0;
+  });
   MESSAGE("fine points beside the sheet's end, per side: ", beside[0], " / ", beside[1], ", closest point on the other curve: ",
           across[0], " / ", across[1]);
   REQUIRE(beside[0] > 100);
