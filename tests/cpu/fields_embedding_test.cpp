@@ -676,7 +676,6 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
   // A block's fine points lie on both sides of the sheet and inside it; each must find the nearer of the sheet's two
   // sides. A projection started from the block's previous closest point keeps that point's side: 325 of the 8056
   // points on the sheet's +x side and within it took a point on its -x side, a voxel away instead of a twentieth.
-  const auto sheet_x = falx_x;
   const io::LabelVolume v = falx_volume();
   const Grid grid = grid_of(v);
   const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
@@ -687,7 +686,7 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
   // and those whose closest point is on the other side.
   size_t beside[2] = {0, 0}, across[2] = {0, 0};
   for_each_fine_point(E, grid, f12, [&](const glm::dvec3& x, const glm::dvec3& cp) {
-    const double centre = sheet_x(int(std::lround(x.y)));
+    const double centre = falx_x(int(std::lround(x.y)));
     const double off = x.x - centre;
     if (std::abs(off) < 0.5 || std::abs(x.y - std::round(x.y)) > 0.3 || x.z > 13.5) return;
     const int side = off > 0;
