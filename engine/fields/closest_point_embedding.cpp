@@ -500,13 +500,13 @@ int ClosestPointEmbedding::feature_index(FeatureKind kind, std::array<uint16_t, 
 
 namespace {
 
-// The difference f = f_m0 - f_m1 of an interface's two fields at x, and its gradient (local units).
-double interface_difference(const IndicatorFields& F, const int* m, const glm::dvec3& x, glm::dvec3& grad) {
-  double f[2];
-  glm::dvec3 g[2];
-  sample_feature_fields(F, m, 2, x, f, g);
-  grad = (g[0] - g[1]) / F.grid.spacing;
-  return f[0] - f[1];
+// The differences f_m0 - f_ma (a = 1..count-1) of a feature's fields at x, and their gradients (local units).
+void feature_differences(const IndicatorFields& F, const int* m, int count, const glm::dvec3& x, double* v,
+                         glm::dvec3* grad) {
+  double f[4];
+  glm::dvec3 g[4];
+  sample_feature_fields(F, m, count, x, f, g);
+  for (int a = 0; a + 1 < count; ++a) v[a] = f[0] - f[a + 1], grad[a] = (g[0] - g[a + 1]) / F.grid.spacing;
 }
 
 // Where the interface difference (value v0 and gradient grad0 at x0) first changes sign along a straight walk from
@@ -517,8 +517,12 @@ constexpr double kSideWalk = 4.0;
 bool start_on_nearest_side(const IndicatorFields& F, const int* m, const glm::dvec3& x0, double v0,
                            const glm::dvec3& grad0, glm::dvec3& out) {
   if (v0 == 0) return false;
-  glm::dvec3 unused;
-  auto same_sign = [&](const glm::dvec3& x) { return interface_difference(F, m, x, unused) * v0 > 0; };
+  auto same_sign = [&](const glm::dvec3& x) {
+    double v;
+    glm::dvec3 g;
+    feature_differences(F, m, 2, x, &v, &g);
+    return v * v0 > 0;
+  };
   const glm::dvec3 step = glm::normalize(grad0) * (v0 > 0 ? -0.1 : 0.1) * F.grid.min_spacing();
   glm::dvec3 lo = x0;
   for (int i = 1; i <= int(kSideWalk * 10); ++i) {
@@ -613,10 +617,7 @@ bool project_from(const IndicatorFields& F, const Feature& feature, const glm::d
 // step's length estimates the distance to the feature's nearest sheet or curve.
 bool linearized_step(const IndicatorFields& F, const int* m, int count, const glm::dvec3& x0, glm::dvec3& step,
                      double v[2], glm::dvec3 grad[2]) {
-  double f[3];
-  glm::dvec3 g[3];
-  sample_feature_fields(F, m, count, x0, f, g);
-  for (int a = 0; a + 1 < count; ++a) v[a] = f[0] - f[a + 1], grad[a] = (g[0] - g[a + 1]) / F.grid.spacing;
+  feature_differences(F, m, count, x0, v, grad);
   if (count == 2) {
     const double gg = glm::dot(grad[0], grad[0]);
     step = -grad[0] * (v[0] / gg);

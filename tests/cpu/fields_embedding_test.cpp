@@ -652,8 +652,20 @@ namespace {
 // Label 2, one voxel thick and stepping across x like a falx (x = round(15 + 1.5 sin(y / 5))), inside label 1 and
 // ending on a one-voxel layer of 3 under 4 (the CSF under the skull).
 int falx_x(int j) { return int(std::lround(15 + 1.5 * std::sin(j / 5.0))); }
-io::LabelVolume falx_volume() {
-  return test::label_volume(32, 32, 20, [&](int i, int j, int k) { return k > 14 ? 4 : k == 14 ? 3 : i == falx_x(j) ? 2 : 1; });
+struct FalxEmbedding {
+  Grid grid;
+  ClosestPointEmbedding E;
+};
+// The volume's embedding at default settings, built once for the tests that read it.
+const FalxEmbedding& falx_embedding() {
+  static const FalxEmbedding built = [] {
+    const io::LabelVolume v = test::label_volume(
+        32, 32, 20, [&](int i, int j, int k) { return k > 14 ? 4 : k == 14 ? 3 : i == falx_x(j) ? 2 : 1; });
+    const Grid grid = grid_of(v);
+    const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
+    return FalxEmbedding{grid, build_closest_point_embedding(F, EmbeddingOptions{})};
+  }();
+  return built;
 }
 
 // Calls fn(x, cp) for every fine point x (voxel-index coordinates) of the feature's blocks and its closest point cp.
@@ -676,10 +688,7 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
   // A block's fine points lie on both sides of the sheet and inside it; each must find the nearer of the sheet's two
   // sides. A projection started from the block's previous closest point keeps that point's side: 325 of the 8056
   // points on the sheet's +x side and within it took a point on its -x side, a voxel away instead of a twentieth.
-  const io::LabelVolume v = falx_volume();
-  const Grid grid = grid_of(v);
-  const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
-  const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
+  const auto& [grid, E] = falx_embedding();
   const int f12 = E.feature_index(FeatureKind::interface, {0, 1, 0xffff, 0xffff});
   REQUIRE(f12 >= 0);
   // Per side: fine points on or beyond a face of the sheet's voxels (rows clear of its steps and of the layer of 3),
@@ -702,15 +711,12 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
 }
 
 TEST_CASE("the two triple curves where a one-voxel sheet ends on a layer both keep their closest points") {
-  // Where the sheet of falx_volume meets the layer of 3, labels 1, 2 and 3 meet along two curves a voxel apart, one
+  // Where the sheet of falx_embedding's volume meets the layer of 3, labels 1, 2 and 3 meet along two curves a voxel apart, one
   // on each side of the sheet: one feature. A fine point beside one curve must find that one. Started from the
   // block's previous closest point, 115 of the 1988 points counted on the sheet's +x side took the curve on its -x
   // side; 52 do with the nearer projection (the rest lie half a voxel out, where the linearized distance to a curve
   // is too rough to ask for the retry).
-  const io::LabelVolume v = falx_volume();
-  const Grid grid = grid_of(v);
-  const auto F = build_indicator_fields(grid, v.labels.data(), IndicatorOptions{});
-  const auto E = build_closest_point_embedding(F, EmbeddingOptions{});
+  const auto& [grid, E] = falx_embedding();
   const int curve = E.feature_index(FeatureKind::triple_curve, {0, 1, 2, 0xffff});
   REQUIRE(curve >= 0);
   // Per side: fine points at least half a voxel beside the sheet's centre and within a voxel of the layer's lower
