@@ -632,10 +632,12 @@ bool linearized_step(const IndicatorFields& F, const int* m, int count, const gl
   return true;
 }
 
-// x0's projection cp onto an interface or a triple curve, replaced by a projection from a start near x0 where cp lies
-// farther from x0 than the fields' linearization says the feature is (linearized_step), and that one is nearer: cp,
-// own (f of the first material there) and gradients (4 entries) then take its values. The start is, for an interface,
-// the sign change on a walk down the gradient (start_on_nearest_side), for a curve the linearized foot x0 + step.
+// x0's projection cp onto an interface or a triple curve, replaced by a projection from a start near x0 where that one
+// is nearer: cp, own (f of the first material there) and gradients (4 entries) then take its values. The start is, for
+// an interface, the sign change on a walk down the gradient (start_on_nearest_side), tried where cp lies farther from
+// x0 than the fields' linearization says the interface is (linearized_step); for a curve the linearized foot x0 +
+// step, tried at every point: the linearization of two constraints a voxel out is too rough to say when (the falx-end
+// test of fields_embedding_test: 52 of 1,988 points kept the other curve where it chose, none now).
 // A projection warm-started from the previous fine point's closest point keeps that point's sheet or curve: where a
 // one-voxel sheet (a falx, a CSF layer) lies between a block's fine points, the points on one side and inside it
 // took the other side's points (the one-voxel-sheet test: 325 of 8056 fine points, a voxel off instead of a
@@ -650,7 +652,7 @@ void take_nearer_projection(const IndicatorFields& F, const Feature& feature, co
   glm::dvec3 step, grad[2];
   double v[2];
   if (!linearized_step(F, m, count, x0, step, v, grad) ||
-      glm::length(x0 - cp) <= 1.5 * glm::length(step) + 0.1 * F.grid.min_spacing())
+      (count == 2 && glm::length(x0 - cp) <= 1.5 * glm::length(step) + 0.1 * F.grid.min_spacing()))
     return;
   glm::dvec3 start = x0 + step, nearer, g[4];
   double own_nearer = 0;

@@ -25,6 +25,42 @@ T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
   return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
 }
 
+// The two quadratics WENO4 blends: on samples {-1, 0, 1} (side 0) and {0, 1, 2} (side 1), at t in [0, 1).
+glm::vec4 quadratic(const glm::vec4& f0, const glm::vec4& f1, const glm::vec4& f2, const glm::vec4& f3, float t, int side) {
+  return side == 0 ? f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t
+                   : f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
+}
+
+// margin: how much nearer than the blend a quadratic must lie to be taken.
+glm::vec4 nearest_candidate(const glm::vec4 (&v)[4][4][4], const glm::vec3& t, const glm::vec3& query, float margin) {
+  // The WENO4 tensor product, and the eight tensor products of one-sided quadratics (a side per axis).
+  glm::vec4 wy[4][4], wz[4], qy[2][4][4], qz[4][4], q[8];
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) {
+      const glm::vec4* l = v[z][y];
+      wy[z][y] = weno4_lookup(l[0], l[1], l[2], l[3], t.x);
+      for (int a = 0; a < 2; ++a) qy[a][z][y] = quadratic(l[0], l[1], l[2], l[3], t.x, a);
+    }
+  for (int z = 0; z < 4; ++z) {
+    wz[z] = weno4_lookup(wy[z][0], wy[z][1], wy[z][2], wy[z][3], t.y);
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) {
+        const auto& l = qy[a][z];
+        qz[a * 2 + b][z] = quadratic(l[0], l[1], l[2], l[3], t.y, b);
+      }
+  }
+  const glm::vec4 weno = weno4_lookup(wz[0], wz[1], wz[2], wz[3], t.z);
+  for (int ab = 0; ab < 4; ++ab)
+    for (int c = 0; c < 2; ++c) q[ab * 2 + c] = quadratic(qz[ab][0], qz[ab][1], qz[ab][2], qz[ab][3], t.z, c);
+  glm::vec3 best = glm::vec3(weno);
+  float best_d = glm::length(best - query) - margin;
+  for (const glm::vec4& c : q) {
+    const float d = glm::length(glm::vec3(c) - query);
+    if (d < best_d) best_d = d, best = glm::vec3(c);
+  }
+  return glm::vec4(best, weno.w);
+}
+
 }  // namespace
 
 float weno4(float f0, float f1, float f2, float f3, float t) { return weno4_of(f0, f1, f2, f3, t); }
@@ -70,11 +106,7 @@ CpResult cp_lookup(const fields::ClosestPointEmbedding& E, const glm::vec3& loca
         const int64_t block = cell_block[(c.z * 4 + c.y) * 4 + c.x];
         v[z][y][x] = E.fine[size_t(block) * size_t(sub * sub * sub) + size_t((s.z * sub + s.y) * sub + s.x)];
       }
-  glm::vec4 vy[4][4], vz[4];
-  for (int z = 0; z < 4; ++z)
-    for (int y = 0; y < 4; ++y) vy[z][y] = weno4_lookup(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x);
-  for (int z = 0; z < 4; ++z) vz[z] = weno4_lookup(vy[z][0], vy[z][1], vy[z][2], vy[z][3], t.y);
-  r.value = weno4_lookup(vz[0], vz[1], vz[2], vz[3], t.z);
+  r.value = nearest_candidate(v, t, local, kBlendMargin * float(E.grid.min_spacing()));
   r.valid = true;
   return r;
 }

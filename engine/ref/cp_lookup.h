@@ -2,6 +2,14 @@
 // Reference of the closest point lookup (shaders/shared/cp_lookup.glsl, shaders/cp_lookup.comp): WENO4 interpolation
 // (Macdonald & Ruuth 2008) of the closest points stored on the embedding's fine grid, tensor-product over a 4x4x4
 // stencil, component by component, in float32 like the shader. No iterative search.
+// Where the stencil holds closest points of two sheets or curves of one feature (the two sides of a one-voxel sheet,
+// the two triple curves where it ends on a layer), the blend lies between them, off the feature, and a particle
+// reprojected there drifts to the other sheet within a few steps (docs/design.md, "Closest points on both sides of a
+// thin sheet"). So the lookup returns, of the WENO4 blend and the eight tensor products of one-sided quadratics (WENO4's
+// two candidates, one side per axis), the one nearest the query point: the true closest point is the nearest point of
+// the feature, and a candidate whose samples keep to one sheet lies on it. A quadratic replaces the blend only when it
+// lies kBlendMargin voxel nearer: on a smooth sheet all nine agree to the interpolation's accuracy, and switching
+// among them there made the lookup jitter (the wedge ball's advection then never met its stop rule in a round).
 #include <cstdint>
 
 #include <glm/glm.hpp>
@@ -9,6 +17,8 @@
 #include "fields/closest_point_embedding.h"
 
 namespace cpmesh::ref {
+
+constexpr float kBlendMargin = 0.02f;  // voxels (of the smallest spacing)
 
 struct CpResult {
   glm::vec4 value{0.0f};  // closest point (local coordinates) in xyz, the fine grid's w (sizing) in w

@@ -1,4 +1,6 @@
-// Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h).
+// Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h),
+// or, where one of the eight tensor products of one-sided quadratics lies nearer the query, that one (ref/cp_lookup.h:
+// the stencil holds two sheets of the feature).
 // Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader, as texel
 // buffers (lavapipe gathers texels for all lanes; it loads storage buffers lane by lane, see fields/cp_lookup_gpu.h):
 //   cp_keys (usamplerBuffer: the tile hash table's keys, two per texel as low, high word), cp_tiles (usamplerBuffer:
@@ -22,6 +24,7 @@ layout(constant_id = 1) const uint CP_FINE_CHUNKS = 4;
 const uint CP_MAX_PROBES = 32;  // ClosestPointEmbedding::kMaxProbes
 const uint CP_EMPTY = 0xffffffffu;
 const int CP_TILE_SHIFT = 2;    // EmbeddingTiles::kShift: tiles of 4^3 cells
+const float CP_BLEND_MARGIN = 0.02;  // ref::kBlendMargin
 
 uint cp_hash(uvec2 key) {  // fields::embedding_hash
   uint h = key.x ^ (key.y * 0x9e3779b9u);
@@ -89,6 +92,20 @@ vec4 cp_weno4v(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t) {
               cp_weno4(f0.z, f1.z, f2.z, f3.z, t), w);
 }
 
+// ref::quadratic: the quadratics cp_weno4 blends, on samples {-1, 0, 1} (side 0) and {0, 1, 2} (side 1).
+vec4 cp_quadratic(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t, int side) {
+  return side == 0 ? f1 + 0.5 * (f2 - f0) * t + 0.5 * (f2 - 2.0 * f1 + f0) * t * t
+                   : f1 + 0.5 * (-f3 + 4.0 * f2 - 3.0 * f1) * t + 0.5 * (f3 - 2.0 * f2 + f1) * t * t;
+}
+
+void cp_nearer(vec3 c, vec3 query, inout vec3 best, inout float best_d) {
+  const float d = length(c - query);
+  if (d < best_d) {
+    best_d = d;
+    best = c;
+  }
+}
+
 // Closest point (xyz) and sizing (w) for a point in local coordinates on `feature`; valid = false when part of the
 // stencil lies outside the feature's band (the point left it), and then the point itself is returned.
 // The 4^3 stencil of fine points lies in at most 3^3 cells (sub >= 2; 4^3 for sub = 1), and those in at most 2^3
@@ -125,9 +142,11 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
       b6 == CP_EMPTY || b7 == CP_EMPTY)
     return vec4(local_pos, 0.0);
   bool complete = true;
-  vec4 vy[4];
+  // The WENO4 tensor product (w*) and the eight tensor products of one-sided quadratics (q*: a side per axis, x then
+  // y then z), as ref::cp_lookup.
+  vec4 wy[4], qy00[4], qy01[4], qy10[4], qy11[4];
   for (int z = 0; z < 4; ++z) {
-    vec4 vx[4];
+    vec4 wx[4], qx0[4], qx1[4];
     for (int y = 0; y < 4; ++y) {
       vec4 v[4];
       for (int x = 0; x < 4; ++x) {
@@ -142,13 +161,30 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
         complete = complete && block != CP_EMPTY;
         v[x] = cp_fine_point(block == CP_EMPTY ? 0u : block, uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
       }
-      vx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
+      wx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
+      qx0[y] = cp_quadratic(v[0], v[1], v[2], v[3], t.x, 0);
+      qx1[y] = cp_quadratic(v[0], v[1], v[2], v[3], t.x, 1);
     }
-    vy[z] = cp_weno4v(vx[0], vx[1], vx[2], vx[3], t.y);
+    wy[z] = cp_weno4v(wx[0], wx[1], wx[2], wx[3], t.y);
+    qy00[z] = cp_quadratic(qx0[0], qx0[1], qx0[2], qx0[3], t.y, 0);
+    qy01[z] = cp_quadratic(qx0[0], qx0[1], qx0[2], qx0[3], t.y, 1);
+    qy10[z] = cp_quadratic(qx1[0], qx1[1], qx1[2], qx1[3], t.y, 0);
+    qy11[z] = cp_quadratic(qx1[0], qx1[1], qx1[2], qx1[3], t.y, 1);
   }
   if (!complete) return vec4(local_pos, 0.0);
   valid = true;
-  return cp_weno4v(vy[0], vy[1], vy[2], vy[3], t.z);
+  const vec4 weno = cp_weno4v(wy[0], wy[1], wy[2], wy[3], t.z);
+  vec3 best = weno.xyz;
+  float best_d = length(best - local_pos) - CP_BLEND_MARGIN * min(CP_SPACING.x, min(CP_SPACING.y, CP_SPACING.z));
+  cp_nearer(cp_quadratic(qy00[0], qy00[1], qy00[2], qy00[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy00[0], qy00[1], qy00[2], qy00[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy01[0], qy01[1], qy01[2], qy01[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy01[0], qy01[1], qy01[2], qy01[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy10[0], qy10[1], qy10[2], qy10[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy10[0], qy10[1], qy10[2], qy10[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy11[0], qy11[1], qy11[2], qy11[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy11[0], qy11[1], qy11[2], qy11[3], t.z, 1).xyz, local_pos, best, best_d);
+  return vec4(best, weno.w);
 }
 
 #endif

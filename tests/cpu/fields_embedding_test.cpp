@@ -714,8 +714,7 @@ TEST_CASE("the two triple curves where a one-voxel sheet ends on a layer both ke
   // Where the sheet of falx_embedding's volume meets the layer of 3, labels 1, 2 and 3 meet along two curves a voxel apart, one
   // on each side of the sheet: one feature. A fine point beside one curve must find that one. Started from the
   // block's previous closest point, 115 of the 1988 points counted on the sheet's +x side took the curve on its -x
-  // side; 52 do with the nearer projection (the rest lie half a voxel out, where the linearized distance to a curve
-  // is too rough to ask for the retry).
+  // side; none does with the nearer projection tried at every curve point (52 where the linearized distance chose).
   const auto& [grid, E] = falx_embedding();
   const int curve = E.feature_index(FeatureKind::triple_curve, {0, 1, 2, 0xffff});
   REQUIRE(curve >= 0);
@@ -736,6 +735,42 @@ TEST_CASE("the two triple curves where a one-voxel sheet ends on a layer both ke
           across[0], " / ", across[1]);
   REQUIRE(beside[0] > 100);
   REQUIRE(beside[1] > 100);
-  CHECK(across[0] <= beside[0] / 30);
-  CHECK(across[1] <= beside[1] / 30);
+  CHECK(across[0] <= beside[0] / 100);
+  CHECK(across[1] <= beside[1] / 100);
+}
+
+TEST_CASE("the lookup at a closest point beside a one-voxel sheet returns that point") {
+  // A point on the feature is its own closest point. Where the two sides of a sheet (or the two triple curves at its
+  // end) lie within the lookup's 4^3 stencil, the stencil holds closest points on both, and the WENO4 blend of them
+  // returns a point between the two, off the feature: a particle reprojected there drifts across to the other side
+  // over a few steps, and that side loses its particles. The stored closest points are the test points; the sheet's
+  // points within a voxel of the layer are left out (its end: the closest point map kinks at the curves).
+  // Lookups off by more than 0.05 voxel with WENO4 alone: 3,070 of 26,602 on the sheet, 2,781 of 12,325 on the curves
+  // (whose fine points then took the retry only where the linearized distance asked for it); with the nearest of WENO4
+  // and the one-sided quadratics, 1,930 and 132. (The sheet's rest: where the jump between its sides falls between the
+  // two middle samples of a line, every quadratic holds it.)
+  const auto& [grid, E] = falx_embedding();
+  const int per_block = E.sub * E.sub * E.sub;
+  for (const auto& [kind, materials] :
+       {std::pair{FeatureKind::interface, std::array<uint16_t, 4>{0, 1, 0xffff, 0xffff}},
+        std::pair{FeatureKind::triple_curve, std::array<uint16_t, 4>{0, 1, 2, 0xffff}}}) {
+    const int feature = E.feature_index(kind, materials);
+    REQUIRE(feature >= 0);
+    size_t looked_up = 0, off = 0;
+    for (size_t slot = 0; slot < E.keys.size(); ++slot) {
+      if (E.keys[slot] == ClosestPointEmbedding::kEmpty || int(E.keys[slot] & 0xffff) != feature) continue;
+      for (int q = 0; q < per_block; ++q) {
+        const glm::vec3 cp = glm::vec3(E.fine[size_t(E.blocks[slot]) * size_t(per_block) + size_t(q)]);
+        if (kind == FeatureKind::interface && cp.z > 12.5f) continue;
+        const auto found = ref::cp_lookup(E, cp, uint32_t(feature));
+        if (!found.valid) continue;
+        ++looked_up;
+        off += glm::length(glm::vec3(found.value) - cp) > 0.05f * float(grid.min_spacing());
+      }
+    }
+    const std::string name = kind == FeatureKind::interface ? "sheet" : "curves";
+    MESSAGE(name, ": ", off, " of ", looked_up, " closest points looked up more than 0.05 voxel away");
+    REQUIRE(looked_up > 10000);
+    CHECK(off <= looked_up / (kind == FeatureKind::interface ? 12 : 50));
+  }
 }
