@@ -18,7 +18,7 @@
 
 namespace cpmesh::ref {
 
-constexpr float kBlendMargin = 0.02f;  // voxels (of the smallest spacing)
+constexpr float kBlendMargin = 0.005f;  // voxels (of the smallest spacing)
 
 struct CpResult {
   glm::vec4 value{0.0f};  // closest point (local coordinates) in xyz, the fine grid's w (sizing) in w

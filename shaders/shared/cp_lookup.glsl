@@ -24,7 +24,7 @@ layout(constant_id = 1) const uint CP_FINE_CHUNKS = 4;
 const uint CP_MAX_PROBES = 32;  // ClosestPointEmbedding::kMaxProbes
 const uint CP_EMPTY = 0xffffffffu;
 const int CP_TILE_SHIFT = 2;    // EmbeddingTiles::kShift: tiles of 4^3 cells
-const float CP_BLEND_MARGIN = 0.02;  // ref::kBlendMargin
+const float CP_BLEND_MARGIN = 0.005;  // ref::kBlendMargin
 
 uint cp_hash(uvec2 key) {  // fields::embedding_hash
   uint h = key.x ^ (key.y * 0x9e3779b9u);

@@ -747,7 +747,7 @@ TEST_CASE("the lookup at a closest point beside a one-voxel sheet returns that p
   // points within a voxel of the layer are left out (its end: the closest point map kinks at the curves).
   // Lookups off by more than 0.05 voxel with WENO4 alone: 3,070 of 26,602 on the sheet, 2,781 of 12,325 on the curves
   // (whose fine points then took the retry only where the linearized distance asked for it); with the nearest of WENO4
-  // and the one-sided quadratics, 1,930 and 132. (The sheet's rest: where the jump between its sides falls between the
+  // and the one-sided quadratics, 1,836 and 99. (The sheet's rest: where the jump between its sides falls between the
   // two middle samples of a line, every quadratic holds it.)
   const auto& [grid, E] = falx_embedding();
   const int per_block = E.sub * E.sub * E.sub;
