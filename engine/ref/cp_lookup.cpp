@@ -7,6 +7,13 @@ namespace cpmesh::ref {
 
 namespace {
 
+// The two quadratics WENO4 blends: on samples {-1, 0, 1} (side 0) and {0, 1, 2} (side 1), at t in [0, 1).
+template <typename T>
+T quadratic(const T& f0, const T& f1, const T& f2, const T& f3, float t, int side) {
+  return side == 0 ? f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t
+                   : f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
+}
+
 // For float and for glm::vec4, lane by lane the same float32 operations (the lookup interpolates the four components
 // of its fine points at once).
 template <typename T>
@@ -14,8 +21,7 @@ T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
   // Two quadratic interpolants, on {-1, 0, 1} and {0, 1, 2}; ideal weights (2 - t)/3 and (t + 1)/3 make their blend
   // the cubic interpolant; the smoothness indicators are written in differences from the centre values so float32
   // keeps them accurate when the values (coordinates) are large.
-  const T p1 = f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t;
-  const T p2 = f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
+  const T p1 = quadratic(f0, f1, f2, f3, t, 0), p2 = quadratic(f0, f1, f2, f3, t, 1);
   const T a = f0 - f1, b = f2 - f1, c = f1 - f2, d = f3 - f2;
   const T is1 = (13.0f * a * a + 26.0f * a * b + 25.0f * b * b) / 12.0f;
   const T is2 = (25.0f * c * c + 26.0f * c * d + 13.0f * d * d) / 12.0f;
@@ -23,12 +29,6 @@ T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
   const T alpha1 = ((2.0f - t) / 3.0f) / ((eps + is1) * (eps + is1));
   const T alpha2 = ((t + 1.0f) / 3.0f) / ((eps + is2) * (eps + is2));
   return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
-}
-
-// The two quadratics WENO4 blends: on samples {-1, 0, 1} (side 0) and {0, 1, 2} (side 1), at t in [0, 1).
-glm::vec4 quadratic(const glm::vec4& f0, const glm::vec4& f1, const glm::vec4& f2, const glm::vec4& f3, float t, int side) {
-  return side == 0 ? f1 + 0.5f * (f2 - f0) * t + 0.5f * (f2 - 2.0f * f1 + f0) * t * t
-                   : f1 + 0.5f * (-f3 + 4.0f * f2 - 3.0f * f1) * t + 0.5f * (f3 - 2.0f * f2 + f1) * t * t;
 }
 
 // margin: how much nearer than the blend a quadratic must lie to be taken.
