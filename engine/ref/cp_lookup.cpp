@@ -31,37 +31,32 @@ T weno4_of(const T& f0, const T& f1, const T& f2, const T& f3, float t) {
   return (alpha1 * p1 + alpha2 * p2) / (alpha1 + alpha2);
 }
 
-// One-sided interpolants on a line of four samples at t in [0, 1): the two quadratics (0, 1) and the linear
-// extrapolations from the two samples on either side (2: from -1 and 0, 3: from 1 and 2).
-template <typename T>
-T one_sided(const T& f0, const T& f1, const T& f2, const T& f3, float t, int k) {
-  if (k < 2) return quadratic(f0, f1, f2, f3, t, k);
-  return k == 2 ? f1 + (f1 - f0) * t : f2 - (f3 - f2) * (1.0f - t);
-}
-
-// The WENO4 blend, or the nearest to the query of the 64 tensor products of one-sided interpolants (one kind per
-// axis) where it lies `margin` nearer.
+// margin: how much nearer than the blend a quadratic must lie to be taken.
 glm::vec4 nearest_candidate(const glm::vec4 (&v)[4][4][4], const glm::vec3& t, const glm::vec3& query, float margin) {
-  glm::vec4 wy[4][4], wz[4];
+  // The WENO4 tensor product, and the eight tensor products of one-sided quadratics (a side per axis).
+  glm::vec4 wy[4][4], wz[4], qy[2][4][4], qz[4][4], q[8];
   for (int z = 0; z < 4; ++z)
-    for (int y = 0; y < 4; ++y) wy[z][y] = weno4_lookup(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x);
-  for (int z = 0; z < 4; ++z) wz[z] = weno4_lookup(wy[z][0], wy[z][1], wy[z][2], wy[z][3], t.y);
+    for (int y = 0; y < 4; ++y) {
+      const glm::vec4* l = v[z][y];
+      wy[z][y] = weno4_lookup(l[0], l[1], l[2], l[3], t.x);
+      for (int a = 0; a < 2; ++a) qy[a][z][y] = quadratic(l[0], l[1], l[2], l[3], t.x, a);
+    }
+  for (int z = 0; z < 4; ++z) {
+    wz[z] = weno4_lookup(wy[z][0], wy[z][1], wy[z][2], wy[z][3], t.y);
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) {
+        const auto& l = qy[a][z];
+        qz[a * 2 + b][z] = quadratic(l[0], l[1], l[2], l[3], t.y, b);
+      }
+  }
   const glm::vec4 weno = weno4_lookup(wz[0], wz[1], wz[2], wz[3], t.z);
+  for (int ab = 0; ab < 4; ++ab)
+    for (int c = 0; c < 2; ++c) q[ab * 2 + c] = quadratic(qz[ab][0], qz[ab][1], qz[ab][2], qz[ab][3], t.z, c);
   glm::vec3 best = glm::vec3(weno);
   float best_d = glm::length(best - query) - margin;
-  for (int a = 0; a < 4; ++a) {
-    glm::vec4 qx[4][4];
-    for (int z = 0; z < 4; ++z)
-      for (int y = 0; y < 4; ++y) qx[z][y] = one_sided(v[z][y][0], v[z][y][1], v[z][y][2], v[z][y][3], t.x, a);
-    for (int b = 0; b < 4; ++b) {
-      glm::vec4 qy[4];
-      for (int z = 0; z < 4; ++z) qy[z] = one_sided(qx[z][0], qx[z][1], qx[z][2], qx[z][3], t.y, b);
-      for (int c = 0; c < 4; ++c) {
-        const glm::vec3 q = glm::vec3(one_sided(qy[0], qy[1], qy[2], qy[3], t.z, c));
-        const float d = glm::length(q - query);
-        if (d < best_d) best_d = d, best = q;
-      }
-    }
+  for (const glm::vec4& c : q) {
+    const float d = glm::length(glm::vec3(c) - query);
+    if (d < best_d) best_d = d, best = glm::vec3(c);
   }
   return glm::vec4(best, weno.w);
 }

@@ -1,5 +1,5 @@
 // Closest point lookup by WENO4 interpolation on the closest point embedding (engine/fields/closest_point_embedding.h),
-// or, where one of the 64 tensor products of one-sided interpolants lies nearer the query, that one (ref/cp_lookup.h:
+// or, where one of the eight tensor products of one-sided quadratics lies nearer the query, that one (ref/cp_lookup.h:
 // the stencil holds two sheets of the feature).
 // Reference: ref::cp_lookup (same float32 arithmetic). Include after declaring, in the including shader, as texel
 // buffers (lavapipe gathers texels for all lanes; it loads storage buffers lane by lane, see fields/cp_lookup_gpu.h):
@@ -98,12 +98,6 @@ vec4 cp_quadratic(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t, int side) {
                    : f1 + 0.5 * (-f3 + 4.0 * f2 - 3.0 * f1) * t + 0.5 * (f3 - 2.0 * f2 + f1) * t * t;
 }
 
-// ref::one_sided: the two quadratics (0, 1) and the linear extrapolations from the two samples on either side (2, 3).
-vec4 cp_one_sided(vec4 f0, vec4 f1, vec4 f2, vec4 f3, float t, int k) {
-  if (k < 2) return cp_quadratic(f0, f1, f2, f3, t, k);
-  return k == 2 ? f1 + (f1 - f0) * t : f2 - (f3 - f2) * (1.0 - t);
-}
-
 void cp_nearer(vec3 c, vec3 query, inout vec3 best, inout float best_d) {
   const float d = length(c - query);
   if (d < best_d) {
@@ -148,13 +142,11 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
       b6 == CP_EMPTY || b7 == CP_EMPTY)
     return vec4(local_pos, 0.0);
   bool complete = true;
-  // The WENO4 tensor product (w*) and the 64 tensor products of one-sided interpolants (q*: a kind per axis, x then y
-  // then z), as ref::cp_lookup.
-  vec4 wy[4];
-  vec4 qy[16][4];  // [x kind * 4 + y kind][z]
+  // The WENO4 tensor product (w*) and the eight tensor products of one-sided quadratics (q*: a side per axis, x then
+  // y then z), as ref::cp_lookup.
+  vec4 wy[4], qy00[4], qy01[4], qy10[4], qy11[4];
   for (int z = 0; z < 4; ++z) {
-    vec4 wx[4];
-    vec4 qx[4][4];  // [x kind][y]
+    vec4 wx[4], qx0[4], qx1[4];
     for (int y = 0; y < 4; ++y) {
       vec4 v[4];
       for (int x = 0; x < 4; ++x) {
@@ -170,20 +162,28 @@ vec4 cp_lookup(vec3 local_pos, uint feature, out bool valid) {
         v[x] = cp_fine_point(block == CP_EMPTY ? 0u : block, uint((s.z * CP_SUB + s.y) * CP_SUB + s.x));
       }
       wx[y] = cp_weno4v(v[0], v[1], v[2], v[3], t.x);
-      for (int a = 0; a < 4; ++a) qx[a][y] = cp_one_sided(v[0], v[1], v[2], v[3], t.x, a);
+      qx0[y] = cp_quadratic(v[0], v[1], v[2], v[3], t.x, 0);
+      qx1[y] = cp_quadratic(v[0], v[1], v[2], v[3], t.x, 1);
     }
     wy[z] = cp_weno4v(wx[0], wx[1], wx[2], wx[3], t.y);
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) qy[a * 4 + b][z] = cp_one_sided(qx[a][0], qx[a][1], qx[a][2], qx[a][3], t.y, b);
+    qy00[z] = cp_quadratic(qx0[0], qx0[1], qx0[2], qx0[3], t.y, 0);
+    qy01[z] = cp_quadratic(qx0[0], qx0[1], qx0[2], qx0[3], t.y, 1);
+    qy10[z] = cp_quadratic(qx1[0], qx1[1], qx1[2], qx1[3], t.y, 0);
+    qy11[z] = cp_quadratic(qx1[0], qx1[1], qx1[2], qx1[3], t.y, 1);
   }
   if (!complete) return vec4(local_pos, 0.0);
   valid = true;
   const vec4 weno = cp_weno4v(wy[0], wy[1], wy[2], wy[3], t.z);
   vec3 best = weno.xyz;
   float best_d = length(best - local_pos) - CP_BLEND_MARGIN * min(CP_SPACING.x, min(CP_SPACING.y, CP_SPACING.z));
-  for (int ab = 0; ab < 16; ++ab)
-    for (int c = 0; c < 4; ++c)
-      cp_nearer(cp_one_sided(qy[ab][0], qy[ab][1], qy[ab][2], qy[ab][3], t.z, c).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy00[0], qy00[1], qy00[2], qy00[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy00[0], qy00[1], qy00[2], qy00[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy01[0], qy01[1], qy01[2], qy01[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy01[0], qy01[1], qy01[2], qy01[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy10[0], qy10[1], qy10[2], qy10[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy10[0], qy10[1], qy10[2], qy10[3], t.z, 1).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy11[0], qy11[1], qy11[2], qy11[3], t.z, 0).xyz, local_pos, best, best_d);
+  cp_nearer(cp_quadratic(qy11[0], qy11[1], qy11[2], qy11[3], t.z, 1).xyz, local_pos, best, best_d);
   return vec4(best, weno.w);
 }
 
