@@ -5,9 +5,9 @@
 // Where the stencil holds closest points of two sheets or curves of one feature (the two sides of a one-voxel sheet,
 // the two triple curves where it ends on a layer), the blend lies between them, off the feature, and a particle
 // reprojected there drifts to the other sheet within a few steps (docs/design.md, "Closest points on both sides of a
-// thin sheet"). So the lookup returns, of the WENO4 blend and the eight tensor products of one-sided quadratics (WENO4's
-// two candidates, one side per axis), the one nearest the query point: the true closest point is the nearest point of
-// the feature, and a candidate whose samples keep to one sheet lies on it. A quadratic replaces the blend only when it
+// thin sheet"). So the lookup returns, of the WENO4 blend and the eight tensor products of one-sided quadratics
+// (WENO4's two candidates, one side per axis), the one nearest the query point: the true closest point is the nearest
+// point of the feature, and a candidate whose samples keep to one sheet lies on it. A quadratic replaces the blend only when it
 // lies kBlendMargin voxel nearer: on a smooth sheet all nine agree to the interpolation's accuracy, and switching
 // among them there made the lookup jitter (the wedge ball's advection then never met its stop rule in a round).
 #include <cstdint>

@@ -711,8 +711,8 @@ TEST_CASE("a one-voxel sheet keeps closest points on both of its sides") {
 }
 
 TEST_CASE("the two triple curves where a one-voxel sheet ends on a layer both keep their closest points") {
-  // Where the sheet of falx_embedding's volume meets the layer of 3, labels 1, 2 and 3 meet along two curves a voxel apart, one
-  // on each side of the sheet: one feature. A fine point beside one curve must find that one. Started from the
+  // Where the sheet of falx_embedding's volume meets the layer of 3, labels 1, 2 and 3 meet along two curves a voxel
+  // apart, one on each side of the sheet: one feature. A fine point beside one curve must find that one. Started from the
   // block's previous closest point, 115 of the 1988 points counted on the sheet's +x side took the curve on its -x
   // side; none does with the nearer projection tried at every curve point (52 where the linearized distance chose).
   const auto& [grid, E] = falx_embedding();
