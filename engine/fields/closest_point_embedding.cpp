@@ -517,11 +517,10 @@ constexpr double kSideWalk = 4.0;
 bool start_on_nearest_side(const IndicatorFields& F, const int* m, const glm::dvec3& x0, double v0,
                            const glm::dvec3& grad0, glm::dvec3& out) {
   if (v0 == 0) return false;
+  const BrickField &f0 = F.fields[size_t(m[0])], &f1 = F.fields[size_t(m[1])];
   auto same_sign = [&](const glm::dvec3& x) {
-    double v;
-    glm::dvec3 g;
-    feature_differences(F, m, 2, x, &v, &g);
-    return v * v0 > 0;
+    const glm::dvec3 ijk = x / F.grid.spacing;
+    return (f0.sample_cubic(ijk) - f1.sample_cubic(ijk)) * v0 > 0;
   };
   const glm::dvec3 step = glm::normalize(grad0) * (v0 > 0 ? -0.1 : 0.1) * F.grid.min_spacing();
   glm::dvec3 lo = x0;
