@@ -24,6 +24,19 @@ namespace {
 
 glm::dvec3 normal_of(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) { return glm::cross(b - a, c - a); }
 
+// Where v would make triangle (v, a, b) equilateral: on the perpendicular bisector of ab, in the triangle's plane, on
+// v's side, sqrt(3)/2 |ab| from ab's midpoint. False for a degenerate triangle.
+bool equilateral_apex(const glm::dvec3& v, const glm::dvec3& a, const glm::dvec3& b, glm::dvec3& apex) {
+  const glm::dvec3 edge = b - a, mid = 0.5 * (a + b);
+  glm::dvec3 dir = glm::cross(normal_of(v, a, b), edge);
+  const double len = glm::length(dir);
+  if (!(len > 0)) return false;
+  dir /= len;
+  if (glm::dot(dir, v - mid) < 0) dir = -dir;
+  apex = mid + dir * (glm::length(edge) * std::sqrt(3.0) / 2);
+  return true;
+}
+
 // Moves checked one vertex at a time cannot see the rest of the mesh: where a layer is thinner than the triangles
 // are wide (a one-voxel shell), a vertex pulled towards its neighbours' centroid can push its triangles through
 // the other side's. Undoes, back to `start` (crossing-free positions), every moved vertex of two
@@ -105,10 +118,27 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
     if (fa.kind == fields::FeatureKind::triple_curve && mb.includes(ma)) along[e.a].push_back(e.b);
     if (fb.kind == fields::FeatureKind::triple_curve && ma.includes(mb)) along[e.b].push_back(e.a);
   }
-  auto worst_around = [&](uint32_t v) {
-    double worst = 1;
-    for (uint32_t t : around[v]) worst = std::min(worst, radius_ratio(V[T[t][0]], V[T[t][1]], V[T[t][2]]));
-    return worst;
+  // The worst and the sum of the radius ratios of v's triangles.
+  auto shape_around = [&](uint32_t v) {
+    std::array<double, 2> worst_sum{1, 0};
+    for (uint32_t t : around[v]) {
+      const double q = radius_ratio(V[T[t][0]], V[T[t][1]], V[T[t][2]]);
+      worst_sum = {std::min(worst_sum[0], q), worst_sum[1] + q};
+    }
+    return worst_sum;
+  };
+  // The mean of the positions that would make each of v's triangles equilateral (v in the surface plane of each).
+  auto equilateral_target = [&](uint32_t v, glm::dvec3& target) {
+    glm::dvec3 sum(0.0);
+    int n = 0;
+    for (uint32_t t : around[v]) {
+      const auto& tri = T[t];
+      const int i = tri[0] == v ? 0 : tri[1] == v ? 1 : 2;
+      glm::dvec3 apex;
+      if (equilateral_apex(V[v], V[tri[(i + 1) % 3]], V[tri[(i + 2) % 3]], apex)) sum += apex, ++n;
+    }
+    if (n) target = sum / double(n);
+    return n > 0;
   };
 
   // Greedy colouring in vertex order: two vertices of one triangle never share a colour. by_colour lists the
@@ -160,16 +190,7 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
         if (mesh.vertex_kind[v] != uint8_t(kind)) continue;  // a junction of the mesh off its feature's (extract.h)
         glm::dvec3 target;
         if (kind == fields::FeatureKind::interface) {
-          glm::dvec3 sum(0.0);
-          double area = 0;
-          for (uint32_t t : around[v]) {
-            const glm::dvec3 &a = V[T[t][0]], &b = V[T[t][1]], &c = V[T[t][2]];
-            const double w = 0.5 * glm::length(normal_of(a, b, c));
-            sum += w * (a + b + c) / 3.0;
-            area += w;
-          }
-          if (area <= 0) continue;
-          target = sum / area;
+          if (!equilateral_target(uint32_t(v), target)) continue;
         } else if (kind == fields::FeatureKind::triple_curve && along[v].size() == 2) {
           target = 0.5 * (V[along[v][0]] + V[along[v][1]]);
         } else {
@@ -182,9 +203,10 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
         has[v] = 1;
       }
     });
-    // Accepted one vertex at a time against the current positions: no triangle may flip, the worst one around the
-    // vertex may not get worse. Vertices of one colour share no triangle, so each colour's are checked in parallel
-    // (the same result on any number of threads).
+    // Accepted one vertex at a time against the current positions: no triangle may flip, and the worst one around
+    // the vertex may not get worse unless it stays at least kShapeFloor and the triangles' radius ratios gain in
+    // sum. Vertices of one colour share no triangle, so each colour's are checked in parallel (the same result on
+    // any number of threads).
     std::atomic<size_t> accepted{0}, refused{0};
     for (size_t c = 0; c + 1 < colour_begin.size(); ++c)
       tbb::parallel_for(tbb::blocked_range<size_t>(colour_begin[c], colour_begin[c + 1], 512),
@@ -195,11 +217,12 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
           const uint32_t v = by_colour[k];
           if (!has[v]) continue;
           const glm::dvec3 old = V[v];
-          const double before = worst_around(v);
+          const auto before = shape_around(v);
           normals.clear();
           for (uint32_t t : around[v]) normals.push_back(normal_of(V[T[t][0]], V[T[t][1]], V[T[t][2]]));
           V[v] = proposal[v];
-          bool ok = worst_around(v) >= before;
+          const auto after = shape_around(v);
+          bool ok = after[0] >= before[0] || (after[0] >= SmoothOptions::kShapeFloor && after[1] > before[1]);
           for (size_t i = 0; i < around[v].size() && ok; ++i) {
             const auto& tri = T[around[v][i]];
             ok = glm::dot(normal_of(V[tri[0]], V[tri[1]], V[tri[2]]), normals[i]) > 0;

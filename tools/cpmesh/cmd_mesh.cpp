@@ -116,8 +116,9 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   sub->add_option("--smoothing-rounds", m.smoothing.rounds,
-                  "Rounds of interface smoothing after extraction (0: off): vertices move towards their neighbours' "
-                  "centroid on their surface or curve, never making a triangle worse")
+                  "Rounds of interface smoothing after extraction (0: off): interface vertices move towards the "
+                  "positions that make their triangles equilateral, curve vertices towards their curve neighbours' "
+                  "midpoint; no move takes a triangle below radius ratio 0.3 and below what it was")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
