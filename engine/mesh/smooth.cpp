@@ -169,8 +169,8 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
     for (uint32_t v = 0; v < nv; ++v) by_colour[next[colour[v]]++] = v;
   }
 
-  std::vector<glm::dvec3> proposal(nv);
-  std::vector<uint8_t> has(nv);
+  std::vector<std::array<glm::dvec3, 2>> proposal(nv);
+  std::vector<uint8_t> has(nv);  // proposals made for v
   // Crossings (undo_crossings): tested after every round while the last test found some (thin layers), else once
   // after the rounds, back to the positions of the last round tested. The test over every moved triangle was most
   // of the smoothing's time, and most meshes have none: on 2 cores the 256^3 wedge ball at h <= 1 took 4.6 s, now
@@ -188,25 +188,31 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
         if (around[v].empty()) continue;
         const auto kind = E.features[vertex_feature[v]].kind;
         if (mesh.vertex_kind[v] != uint8_t(kind)) continue;  // a junction of the mesh off its feature's (extract.h)
-        glm::dvec3 target;
+        // An interface vertex's target is its shape target; a curve vertex has two, tried in turn at acceptance:
+        // the shape target's shift along the curve from the midpoint of its curve neighbours (what most lifts the
+        // triangles along the curve), and the midpoint itself (what evens the curve's spacing, and mends a
+        // triangle of three curve vertices where the curve bends).
+        std::array<glm::dvec3, 2> targets;
+        int n = 0;
         if (kind == fields::FeatureKind::interface) {
-          if (!equilateral_target(uint32_t(v), target)) continue;
+          if (equilateral_target(uint32_t(v), targets[0])) n = 1;
         } else if (kind == fields::FeatureKind::triple_curve && along[v].size() == 2) {
-          target = 0.5 * (V[along[v][0]] + V[along[v][1]]);
-        } else {
-          continue;  // quadruple points, and curve vertices whose curve neighbours are not a clean pair
+          const glm::dvec3 mid = 0.5 * (V[along[v][0]] + V[along[v][1]]);
+          const glm::dvec3 u = glm::normalize(V[along[v][1]] - V[along[v][0]]);
+          glm::dvec3 shape;
+          if (equilateral_target(uint32_t(v), shape)) targets[n++] = mid + u * glm::dot(shape - mid, u);
+          targets[n++] = mid;
         }
-        const glm::dvec3 moved = V[v] + options.step * (target - V[v]);
-        glm::dvec3 foot;
-        if (!onto_feature(fields, E, vertex_feature[v], moved, V[v], foot)) continue;
-        proposal[v] = foot;
-        has[v] = 1;
+        for (int i = 0; i < n; ++i) {
+          const glm::dvec3 moved = V[v] + options.step * (targets[i] - V[v]);
+          if (onto_feature(fields, E, vertex_feature[v], moved, V[v], proposal[v][has[v]])) ++has[v];
+        }
       }
     });
     // Accepted one vertex at a time against the current positions: no triangle may flip, and the worst one around
     // the vertex may not get worse unless it stays at least kShapeFloor and the triangles' radius ratios gain in
-    // sum. Vertices of one colour share no triangle, so each colour's are checked in parallel (the same result on
-    // any number of threads).
+    // sum; of a curve vertex's two proposals, the acceptable one with the larger sum. Vertices of one colour share
+    // no triangle, so each colour's are checked in parallel (the same result on any number of threads).
     std::atomic<size_t> accepted{0}, refused{0};
     for (size_t c = 0; c + 1 < colour_begin.size(); ++c)
       tbb::parallel_for(tbb::blocked_range<size_t>(colour_begin[c], colour_begin[c + 1], 512),
@@ -220,19 +226,20 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
           const auto before = shape_around(v);
           normals.clear();
           for (uint32_t t : around[v]) normals.push_back(normal_of(V[T[t][0]], V[T[t][1]], V[T[t][2]]));
-          V[v] = proposal[v];
-          const auto after = shape_around(v);
-          bool ok = after[0] >= before[0] || (after[0] >= SmoothOptions::kShapeFloor && after[1] > before[1]);
-          for (size_t i = 0; i < around[v].size() && ok; ++i) {
-            const auto& tri = T[around[v][i]];
-            ok = glm::dot(normal_of(V[tri[0]], V[tri[1]], V[tri[2]]), normals[i]) > 0;
+          double best_sum = -1;  // of the best acceptable proposal, which is kept
+          glm::dvec3 best = old;
+          for (int p = 0; p < has[v]; ++p) {
+            V[v] = proposal[v][p];
+            const auto after = shape_around(v);
+            bool ok = after[0] >= before[0] || (after[0] >= SmoothOptions::kShapeFloor && after[1] > before[1]);
+            for (size_t i = 0; i < around[v].size() && ok; ++i) {
+              const auto& tri = T[around[v][i]];
+              ok = glm::dot(normal_of(V[tri[0]], V[tri[1]], V[tri[2]]), normals[i]) > 0;
+            }
+            if (ok && after[1] > best_sum) best_sum = after[1], best = V[v];
           }
-          if (ok) {
-            ++ok_here;
-          } else {
-            V[v] = old;
-            ++refused_here;
-          }
+          V[v] = best;
+          ++(best_sum >= 0 ? ok_here : refused_here);
         }
         accepted += ok_here;
         refused += refused_here;

@@ -1,18 +1,19 @@
 #pragma once
 // Smoothing of the interface meshes after extraction: the restricted Delaunay triangles of a relaxed particle
 // system are good where the particles are evenly spread, but graded sizing and the junctions leave a tail of
-// flattened triangles, most of them at the junctions. Each round moves every vertex towards the mean of the points
-// that would make each of its triangles equilateral (interface vertices, in the surface: a shape target, which the
-// triangles along triple curves need, where the area-weighted centroid of a one-sided star is no better than where
-// the vertex is) or the midpoint of its two curve neighbours (triple-curve vertices, along the curve), puts it back
-// on its feature with the Newton projection of the smooth fields (the embedding's own construction), and keeps the
-// move only if none of its triangles flips and the worst radius ratio among them does not get worse, or stays at
-// least SmoothOptions::kShapeFloor while their sum grows ("smart" smoothing; docs/design.md, "Interface smoothing"),
-// checked against the moves already kept: vertex by vertex within a colour class (no two vertices of one triangle
-// share a colour, so a class is checked in parallel), class by class. Where triangles cross others (thin layers),
-// their moved vertices go back to the last positions tested crossing-free: the test runs after every round while it
-// finds crossings, else once after the last round. Quadruple points do not move. Connectivity is unchanged, so the
-// interfaces stay conforming along the curves and manifold where they were.
+// flattened triangles, most of them at the junctions. Each round moves every vertex towards a shape target, the mean
+// of the points that would make each of its triangles equilateral: an interface vertex in its surface (the triangles
+// along triple curves need it: the area-weighted centroid of a one-sided star is about where the vertex is), a
+// triple-curve vertex along its curve (the target's shift from its curve neighbours' midpoint, or that midpoint,
+// whichever does better). It puts the vertex back on its feature with the Newton projection of the smooth fields (the
+// embedding's own construction) and keeps the move only if none of its triangles flips and the worst radius ratio
+// among them does not get worse, or stays at least SmoothOptions::kShapeFloor while their sum grows ("smart"
+// smoothing; docs/design.md, "Interface smoothing"), checked against the moves already kept: vertex by vertex within
+// a colour class (no two vertices of one triangle share a colour, so a class is checked in parallel), class by
+// class. Where triangles cross others (thin layers), their moved vertices go back to the last positions tested
+// crossing-free: the test runs after every round while it finds crossings, else once after the last round.
+// Quadruple points do not move. Connectivity is unchanged, so the interfaces stay conforming along the curves and
+// manifold where they were.
 #include <array>
 #include <cstdint>
 #include <vector>
