@@ -3,13 +3,21 @@
 // install it). Reads the same volumes as cpmesh-bench-pipeline (shape:size or a file, through cpmesh's readers),
 // meshes with facet size and cell size in voxels, and prints one JSON line: time, surface triangles (facets of the
 // complex), radius ratio mean/min, min dihedral of the cells, vertex count, and on the wedge ball the junction error
-// (bench_util.h junction_error, the same measure as cpmesh's row).
-//   cpmesh-peer-cgal VOLUME [--facet-size 1.5] [--facet-distance 0.5] [--cell-size 3]
+// (bench_util.h junction_error, the same measure as cpmesh's row). With --write DIR it also writes DIR/interfaces.vtp
+// and DIR/volume.vtu in cpmesh's layout and world coordinates, for cpmesh-check to read CGAL's mesh as it reads
+// cpmesh's (docs/corpus.md). CGAL's labeled-image domain has no features, so each vertex's "feature" there is
+// derived from the materials of its facets (two: interface, three: triple curve, more: quadruple point): the
+// checker's manifold, boundary, closure, crossing, conformity, label and quality checks then read as they do for
+// cpmesh, and its wrong-face check holds by construction.
+//   cpmesh-peer-cgal VOLUME [--facet-size 1.5] [--facet-distance 0.5] [--cell-size 3] [--write DIR]
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <map>
+#include <set>
 #include <string>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -22,6 +30,7 @@
 #include <CGAL/make_mesh_3.h>
 
 #include "bench_util.h"
+#include "io/mesh_writers.h"
 #include "mesh/quality.h"
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -30,17 +39,61 @@ using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_ta
 using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
 using Criteria = CGAL::Mesh_criteria_3<Tr>;
 
+// CGAL's complex as cpmesh writes its own (io/mesh_writers.h), in the volume's world coordinates: the facets of the
+// complex with their two subdomains (0 outside), the cells with theirs.
+static void write_for_checker(const C3t3& c3t3, const cpmesh::io::LabelVolume& vol, const std::string& dir) {
+  std::map<Tr::Vertex_handle, uint32_t> index;
+  std::vector<std::array<double, 3>> points;
+  auto id = [&](Tr::Vertex_handle v) {
+    const auto [it, added] = index.emplace(v, uint32_t(points.size()));
+    if (added) {
+      const auto& q = v->point();
+      points.push_back({CGAL::to_double(q.x()) + vol.origin[0], CGAL::to_double(q.y()) + vol.origin[1],
+                        CGAL::to_double(q.z()) + vol.origin[2]});
+    }
+    return it->second;
+  };
+  cpmesh::io::TetMesh tets;
+  for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
+    std::array<uint32_t, 3> tri{};
+    for (int k = 0, n = 0; k < 4; ++k)
+      if (k != f->second) tri[size_t(n++)] = id(f->first->vertex(k));
+    const auto mirror = c3t3.triangulation().mirror_facet(*f);
+    tets.triangles.push_back(tri);
+    tets.triangle_pair.push_back({uint16_t(c3t3.subdomain_index(f->first)), uint16_t(c3t3.subdomain_index(mirror.first))});
+  }
+  for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
+    tets.tets.push_back({id(c->vertex(0)), id(c->vertex(1)), id(c->vertex(2)), id(c->vertex(3))});
+    tets.tet_material.push_back(uint16_t(c3t3.subdomain_index(c)));
+  }
+  tets.vertices = points;
+  std::vector<std::set<uint16_t>> around(points.size());
+  for (size_t t = 0; t < tets.triangles.size(); ++t)
+    for (uint32_t v : tets.triangles[t]) around[v].insert(tets.triangle_pair[t].begin(), tets.triangle_pair[t].end());
+  cpmesh::io::TriangleMesh surface{points, tets.triangles, tets.triangle_pair, {}, {}};
+  using cpmesh::io::VertexFeature;
+  for (const auto& m : around)
+    surface.vertex_feature.push_back(uint8_t(m.size() <= 2   ? VertexFeature::interface
+                                             : m.size() == 3 ? VertexFeature::triple_curve
+                                                             : VertexFeature::quadruple_point));
+  std::filesystem::create_directories(dir);
+  cpmesh::io::write_vtp(dir + "/interfaces.vtp", surface);
+  cpmesh::io::write_vtu(dir + "/volume.vtu", tets);
+}
+
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: cpmesh-peer-cgal VOLUME [--facet-size F] [--facet-distance D] [--cell-size C]\n";
+    std::cerr << "usage: cpmesh-peer-cgal VOLUME [--facet-size F] [--facet-distance D] [--cell-size C] [--write DIR]\n";
     return 2;
   }
   const std::string spec = argv[1];
   double facet_size = 1.5, facet_distance = 0.5, cell_size = 3.0;
+  std::string write_dir;
   for (int a = 2; a + 1 < argc; a += 2) {
     const std::string k = argv[a];
     const double v = std::atof(argv[a + 1]);
-    if (k == "--facet-size") facet_size = v;
+    if (k == "--write") write_dir = argv[a + 1];
+    else if (k == "--facet-size") facet_size = v;
     else if (k == "--facet-distance") facet_distance = v;
     else if (k == "--cell-size") cell_size = v;
     else {
@@ -104,6 +157,7 @@ int main(int argc, char** argv) {
       for (double a : cpmesh::mesh::dihedral_angles(v[0], v[1], v[2], v[3])) dihedral_min = std::min(dihedral_min, a * 180 / M_PI);
       ++cells;
     }
+    if (!write_dir.empty()) write_for_checker(c3t3, vol, write_dir);
     std::string junction;
     if (loaded.junctions)
       junction = ",\"junction_error\":" +
