@@ -1,4 +1,5 @@
 #include "mesh/pipeline.h"
+#include "mesh/mend_topology.h"
 #include "mesh/refine.h"
 #include "mesh/small_labels.h"
 
@@ -323,7 +324,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   // Delaunay, labels, repair, then Delaunay refinement (refine.h): where wrong faces are left or an interface is not
   // a manifold bounded by triple curves, samples are added on the missing features (inserted into the
   // tetrahedralization: DelaunayMesh::insert; rebuilt where points moved) and the tets labelled again, until none
-  // is needed or none fits.
+  // is needed or none fits; the faults then left are mended by relabelling runs of tets around them
+  // (mend_topology.h).
   begin("delaunay and extraction");
   double tetrahedralization_seconds = 0;  // the rest of the stage (from its start) is the extraction
   const auto stage_start = t;             // when the stage began (the last stage_done)
@@ -355,6 +357,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     std::vector<uint32_t> vertex_feature;
     MeshReport report;
   } best;
+  // The faces to mend (the wrong ones, and those around interface edges that are not manifold) and their sites; the
+  // report lists where the first of them lie.
+  auto faces_to_mend = [&](const std::vector<uint32_t>& wrong) {
+    std::vector<uint32_t> faces = nonmanifold_faces(extract_interfaces(T, adj, hull, material, kind));
+    faces.insert(faces.end(), wrong.begin(), wrong.end());
+    std::vector<RefineSite> sites = face_sites(F.fields, T, adj, hull, material, vertex_materials, faces);
+    rep.refinement_left.clear();
+    for (size_t i = 0; i < sites.size() && i < kMaxRefinementLeft; ++i) {
+      const glm::dvec3 q = grid.to_physical(sites[i].at);
+      rep.refinement_left.push_back({{labels[sites[i].m], labels[sites[i].o]}, {q.x, q.y, q.z}});
+    }
+    return std::pair{std::move(faces), std::move(sites)};
+  };
   for (int round = 0;; ++round) {
     material = label_tets(F.fields, T);
     hull = hull_materials(F.fields, T, adj);
@@ -368,15 +383,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       wrong = wrong_faces(T, adj, hull, vertex_materials, material);
     }
     rep.wrong_faces = wrong.size();
-    std::vector<uint32_t> faces = nonmanifold_faces(extract_interfaces(T, adj, hull, material, kind));
-    faces.insert(faces.end(), wrong.begin(), wrong.end());
-    const std::vector<RefineSite> sites = face_sites(F.fields, T, adj, hull, material, vertex_materials, faces);
+    const auto [faces, sites] = faces_to_mend(wrong);
     rep.refinement_rounds = round;
-    rep.refinement_left.clear();
-    for (size_t i = 0; i < sites.size() && i < kMaxRefinementLeft; ++i) {
-      const glm::dvec3 q = grid.to_physical(sites[i].at);
-      rep.refinement_left.push_back({{labels[sites[i].m], labels[sites[i].o]}, {q.x, q.y, q.z}});
-    }
     // A round that leaves more faces to refine than the best round three rounds ago ends it: what is left cycles.
     stalled = faces.size() < fewest_faces ? 0 : stalled + 1;
     update("refinement round " + std::to_string(round) + ": " + count(faces.size()) + " faces to mend, " +
@@ -418,6 +426,13 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     });
   }
   delaunay_mesh.reset();
+  const TopologyMendReport mended = mend_topology(T, adj, hull, vertex_materials, kind, material);
+  rep.mend_edges = mended.edges, rep.mend_relabelled = mended.relabelled;
+  if (mended.relabelled > 0) {
+    const std::vector<uint32_t> wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+    rep.wrong_faces = wrong.size();
+    faces_to_mend(wrong);
+  }
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
   rep.junction_vertices = promote_junction_vertices(I, vertex_materials, kind);

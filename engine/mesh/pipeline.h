@@ -124,6 +124,7 @@ struct MeshReport {
   size_t refinement_moves = 0;   // particles on the wrong feature moved to a refinement sample
   size_t refinement_removals = 0;  // particles on the wrong feature with no junction to move to, left out
   int refinement_rounds = 0;
+  size_t mend_edges = 0, mend_relabelled = 0;  // after the refinement (mend_topology.h): fault edges, tets relabelled
   size_t junction_vertices = 0;  // vertices taken onto junctions within the crowding radius (extract.h, promote_...)
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing

@@ -271,6 +271,8 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["repair"]["refinement_moves"] = rep.refinement_moves;
             j["repair"]["refinement_removals"] = rep.refinement_removals;
             j["repair"]["junction_vertices"] = rep.junction_vertices;
+            j["repair"]["mend_fault_edges"] = rep.mend_edges;
+            j["repair"]["mend_relabelled_tets"] = rep.mend_relabelled;
             j["repair"]["left"] = nlohmann::json::array();
             for (const auto& left : rep.refinement_left) j["repair"]["left"].push_back({{"labels", left.labels}, {"at", left.at}});
             io::write_atomically(dir + "report.json", [&](std::ostream& out) { out << j.dump(2) << '\n'; });
