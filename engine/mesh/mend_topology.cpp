@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <utility>
 
@@ -22,8 +23,7 @@ class Faults {
   Faults(const Tets& T, const Adjacency& adj, const std::vector<uint16_t>& hull,
           const std::vector<fields::MaterialList>& vertex_materials, const std::vector<uint8_t>& kind,
           std::vector<uint16_t>& material)
-      : T_(T), adj_(adj), hull_(hull), vm_(vertex_materials), kind_(kind), material_(material),
-        around_(T.points.size(), T.tets) {}
+      : T_(T), adj_(adj), hull_(hull), vm_(vertex_materials), kind_(kind), material_(material) {}
 
   // The edges with an excess (of the faces nonmanifold_faces reports), and the edges of the wrong faces.
   std::vector<Edge> faulty() const {
@@ -81,7 +81,7 @@ class Faults {
   // A vertex of a wrong face: its tets of materials it does not lie on, relabelled together with one it lies on.
   size_t mend(uint32_t v) {
     std::vector<uint32_t> off;
-    for (uint32_t t : around_[v])
+    for (uint32_t t : around()[v])
       if (!vm_[v].has(material_[t])) off.push_back(t);
     Choice best;
     if (!off.empty())
@@ -92,7 +92,7 @@ class Faults {
  private:
   std::vector<uint32_t> tets_around(const Edge& e) const {
     std::vector<uint32_t> out;
-    for (uint32_t t : around_[e.first])
+    for (uint32_t t : around()[e.first])
       if (has_vertex(T_.tets[t], e.second)) out.push_back(t);
     return out;
   }
@@ -176,15 +176,20 @@ class Faults {
   // (the labels are restored).
   std::pair<int, int> try_relabel(const std::vector<uint32_t>& run, uint16_t to) {
     std::set<Edge> edges;
-    for (uint32_t t : run)
+    std::set<uint32_t> faces;  // each shared face once, as faces_around keys them
+    for (uint32_t t : run) {
       for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j) edges.insert(std::minmax(T_.tets[t][size_t(i)], T_.tets[t][size_t(j)]));
+      for (uint32_t c = 0; c < 4; ++c) {
+        const uint32_t tc = t * 4 + c, nb = adj_.neighbour[tc];
+        faces.insert(nb == Adjacency::kHull ? tc : std::min(tc, nb));
+      }
+    }
     auto measure = [&] {
       int ex = 0, wrong = 0;
       for (const Edge& e : edges) ex += excess(e);
-      for (uint32_t t : run)
-        for (uint32_t c = 0; c < 4; ++c)
-          wrong += face_is_wrong(T_, t * 4 + c, material_[t], material_across(adj_, hull_, material_, t * 4 + c), vm_);
+      for (uint32_t tc : faces)
+        wrong += face_is_wrong(T_, tc, material_[tc / 4], material_across(adj_, hull_, material_, tc), vm_);
       return std::pair{ex, wrong};
     };
     std::vector<uint16_t> from;
@@ -212,7 +217,12 @@ class Faults {
   const std::vector<fields::MaterialList>& vm_;
   const std::vector<uint8_t>& kind_;
   std::vector<uint16_t>& material_;
-  ElementsAround<4> around_;
+  // The tets around each point, built at the first fault (most meshes have none).
+  const ElementsAround<4>& around() const {
+    if (!around_) around_.emplace(T_.points.size(), T_.tets);
+    return *around_;
+  }
+  mutable std::optional<ElementsAround<4>> around_;
 };
 
 }  // namespace
