@@ -53,9 +53,9 @@ class Faults {
       ++total;
     }
     const auto interface_kind = uint8_t(fields::FeatureKind::interface);
-    const bool open_allowed = total >= 3 && kind_[e.first] != interface_kind && kind_[e.second] != interface_kind;
+    const bool on_junctions = kind_[e.first] != interface_kind && kind_[e.second] != interface_kind;
     int n = 0;
-    for (const auto& [key, c] : count) n += c > 2 ? c - 2 : (c == 1 && !open_allowed);
+    for (const auto& [key, c] : count) n += edge_excess(size_t(c), size_t(total), on_junctions);
     return n;
   }
 
@@ -97,15 +97,20 @@ class Faults {
     return out;
   }
 
-  // The faces holding e, each shared face once (the smaller of its two tet-corner indices; a hull face as it is).
+  // A face once for its two sides: the smaller of its two tet-corner indices (a hull face as it is).
+  uint32_t shared_face(uint32_t tc) const {
+    const uint32_t nb = adj_.neighbour[tc];
+    return nb == Adjacency::kHull ? tc : std::min(tc, nb);
+  }
+
+  // The faces holding e, each once.
   std::vector<uint32_t> faces_around(const Edge& e) const {
     std::vector<uint32_t> out;
     for (uint32_t t : tets_around(e))
       for (uint32_t c = 0; c < 4; ++c) {
         const uint32_t v = T_.tets[t][c];
         if (v == e.first || v == e.second) continue;  // the face opposite a corner of e does not hold e
-        const uint32_t tc = t * 4 + c, nb = adj_.neighbour[tc];
-        out.push_back(nb == Adjacency::kHull ? tc : std::min(tc, nb));
+        out.push_back(shared_face(t * 4 + c));
       }
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -176,14 +181,11 @@ class Faults {
   // (the labels are restored).
   std::pair<int, int> try_relabel(const std::vector<uint32_t>& run, uint16_t to) {
     std::set<Edge> edges;
-    std::set<uint32_t> faces;  // each shared face once, as faces_around keys them
+    std::set<uint32_t> faces;
     for (uint32_t t : run) {
       for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j) edges.insert(std::minmax(T_.tets[t][size_t(i)], T_.tets[t][size_t(j)]));
-      for (uint32_t c = 0; c < 4; ++c) {
-        const uint32_t tc = t * 4 + c, nb = adj_.neighbour[tc];
-        faces.insert(nb == Adjacency::kHull ? tc : std::min(tc, nb));
-      }
+      for (uint32_t c = 0; c < 4; ++c) faces.insert(shared_face(t * 4 + c));
     }
     auto measure = [&] {
       int ex = 0, wrong = 0;

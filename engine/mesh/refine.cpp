@@ -164,9 +164,8 @@ std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
       size_t k = j;
       while (k < end && edges[k].group == edges[j].group) ++k;
       const Edge& e = edges[j];
-      const bool open_off_curve = k - j == 1 && (end - i < 3 || I.vertex_kind[e.a] == interface_kind ||
-                                                 I.vertex_kind[e.b] == interface_kind);
-      if (k - j > 2 || open_off_curve)
+      const bool on_junctions = I.vertex_kind[e.a] != interface_kind && I.vertex_kind[e.b] != interface_kind;
+      if (edge_excess(k - j, end - i, on_junctions) > 0)
         for (size_t q = j; q < k; ++q) out.push_back(I.face[edges[q].triangle]);
       j = k;
     }

@@ -63,6 +63,15 @@ std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const 
 // fewer than three interface triangles share or that end at an interface vertex.
 std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& mesh);
 
+// The faults of an interface edge with `in_interface` triangles of one interface and `around` interface triangles of
+// all interfaces: the triangles over two, or one for a single triangle off a triple curve (fewer than three
+// interface triangles around it, or an end that is not a junction vertex). nonmanifold_faces reports the faces of
+// edges with any; mend_topology.h lowers their sum.
+inline int edge_excess(size_t in_interface, size_t around, bool ends_on_junctions) {
+  if (in_interface > 2) return int(in_interface - 2);
+  return in_interface == 1 && (around < 3 || !ends_on_junctions);
+}
+
 // New samples for the sites: per site the closest point of a candidate feature (from the embedding, or by Newton on
 // the fields where the embedding's stencil is incomplete, as at a thin part's edge; h is then the smallest of the
 // face's vertices'): a triple curve or quadruple point whose closest point lies within `protection` x h (the
