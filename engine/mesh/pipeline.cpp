@@ -108,22 +108,26 @@ std::vector<std::array<double, 3>> physical_vertices(const fields::Grid& grid, c
 // interfaces by the fields' projection (smooth.h onto_feature); I takes their new positions.
 SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const std::vector<uint32_t>& vertex_feature,
                                          const std::vector<uint8_t>& kind, const QualityOptions& options,
-                                         InterfaceMesh& I, Tets& V) {
+                                         double voxel, InterfaceMesh& I, Tets& V) {
   // A vertex promoted to a junction (extract.h) stays: its feature is not the junction it stands for.
   std::vector<uint8_t> movable(I.vertices.size());
   for (size_t v = 0; v < movable.size(); ++v) {
     const auto own = F.embedding.features[vertex_feature[v]].kind;
-    movable[v] = kind[v] != uint8_t(own) ? 0 : own == fields::FeatureKind::interface ? 1 : own == fields::FeatureKind::triple_curve ? 2 : 0;
+    movable[v] = kind[v] != uint8_t(own)                      ? 0
+                 : own == fields::FeatureKind::interface     ? 1
+                 : own == fields::FeatureKind::triple_curve  ? 2
+                                                             : 3;
   }
   const FeatureProjection project = [&](uint32_t v, const glm::dvec3& near, glm::dvec3& on) {
     return onto_feature(F.fields, F.embedding, vertex_feature[v], near, V.points[v], on);
   };
+  const double offset = options.sliver_offset * voxel;
   SurfaceSliverReport r = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, options.min_dihedral,
-                                                options.max_radius_edge);
+                                                options.max_radius_edge, offset);
   if (r.moves > 0 && r.slivers_after > 0) {  // the inner vertices around the moved ones may find better places now
     improve_tets(V.points, V.tets, I.vertices.size(), options.min_dihedral, options.max_radius_edge);
     const SurfaceSliverReport again = move_surface_vertices(V.points, V.tets, I.triangles, movable, project,
-                                                            options.min_dihedral, options.max_radius_edge);
+                                                            options.min_dihedral, options.max_radius_edge, offset);
     r.moves += again.moves;
     r.slivers_after = again.slivers_after;
   }
@@ -481,7 +485,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     try {
       MaterialMeshes meshes = mesh_materials(I.vertices, I.triangles, I.pair, regions, labels, options.volume);
       const auto moves_start = clock::now();
-      rep.surface_slivers = mend_surface_slivers(F, vertex_feature, kind, options.volume, I, meshes.tets);
+      rep.surface_slivers = mend_surface_slivers(F, vertex_feature, kind, options.volume, grid.min_spacing(), I,
+                                                 meshes.tets);
       if (rep.surface_slivers.moves > 0) {  // the interfaces moved with the tets: their figures and output too
         interface_quality(I, kind, labels, rep);
         result.surfaces.vertices = result.particles.vertices = physical_vertices(grid, I.vertices);

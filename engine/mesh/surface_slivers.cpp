@@ -13,6 +13,8 @@ namespace {
 using Tet = std::array<uint32_t, 4>;
 using Triangle = std::array<uint32_t, 3>;
 
+constexpr uint8_t kInterface = 1, kPoint = 3;  // `movable`'s kinds (2: a triple-curve vertex)
+
 double signed_volume(const std::vector<glm::dvec3>& P, const Tet& t) {
   return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
 }
@@ -21,26 +23,47 @@ glm::dvec3 normal_of(const std::vector<glm::dvec3>& P, const Triangle& t) {
   return glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
 }
 
-// Every face through v is shared by exactly two of v's tets: v's tets tile a ball around it, not a part of one (v on
-// the mesh's outer boundary, or tets missing where a run left a part out).
-bool closed_star(uint32_t v, std::span<const uint32_t> mine, const std::vector<Tet>& tets) {
-  std::vector<std::array<uint32_t, 2>> edges;  // the face (v, a, b) as (a, b), a < b
-  for (uint32_t t : mine) {
-    std::array<uint32_t, 3> other{};
+enum class Star { closed, open, broken };
+
+// Closed: every face through v is shared by exactly two of v's tets, so v's tets tile a ball around it. Open: v is on
+// the outer boundary of the meshed materials (the outside is not meshed), every face through v with one tet being
+// one of v's interface triangles; a move must then be checked against the triangles across the outside
+// (undo_crossings). Broken: anything else (tets missing where a run left a part out).
+Star star_of(uint32_t v, std::span<const uint32_t> mine, std::span<const uint32_t> faces, const std::vector<Tet>& tets,
+             const std::vector<Triangle>& triangles) {
+  using Edge = std::array<uint32_t, 2>;  // the face (v, a, b) as (a, b), a < b
+  auto edge_of = [v](std::span<const uint32_t> corners) {
+    Edge e{};
     size_t n = 0;
-    for (uint32_t u : tets[t])
-      if (u != v && n < 3) other[n++] = u;
-    if (n != 3) return false;
-    for (int i = 0; i < 3; ++i) {
-      const uint32_t a = other[size_t(i)], b = other[size_t((i + 1) % 3)];
-      edges.push_back({std::min(a, b), std::max(a, b)});
+    for (uint32_t u : corners)
+      if (u != v && n < 2) e[n++] = u;
+    return std::array<uint32_t, 2>{std::min(e[0], e[1]), std::max(e[0], e[1])};
+  };
+  std::vector<Edge> edges;
+  for (uint32_t t : mine)
+    for (int skip = 0; skip < 4; ++skip) {
+      if (tets[t][size_t(skip)] == v) continue;
+      std::array<uint32_t, 3> face{};
+      for (int i = 0, n = 0; i < 4; ++i)
+        if (i != skip) face[size_t(n++)] = tets[t][size_t(i)];
+      edges.push_back(edge_of(face));
     }
-  }
+  std::vector<Edge> on_interface;
+  for (uint32_t f : faces) on_interface.push_back(edge_of(triangles[f]));
   std::sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size(); i += 2)
-    if (i + 1 >= edges.size() || edges[i] != edges[i + 1] || (i + 2 < edges.size() && edges[i + 2] == edges[i]))
-      return false;
-  return true;
+  std::sort(on_interface.begin(), on_interface.end());
+  Star star = Star::closed;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i > 2) return Star::broken;
+    if (j - i == 1) {
+      if (!std::binary_search(on_interface.begin(), on_interface.end(), edges[i])) return Star::broken;
+      star = Star::open;
+    }
+    i = j;
+  }
+  return star;
 }
 
 // How good vertex v's neighbourhood is at its current position: how many of its tets are under the bound, and the
@@ -58,28 +81,47 @@ struct Score {
 class Mover {
  public:
   Mover(std::vector<glm::dvec3>& P, const std::vector<Tet>& tets, const std::vector<Triangle>& triangles,
-        const FeatureProjection& project, double target, double max_radius_edge)
+        const FeatureProjection& project, double target, double max_radius_edge, double max_offset)
       : P_(P), tets_(tets), triangles_(triangles), project_(project), target_(target),
-        max_radius_edge_(max_radius_edge), tets_around_(P.size(), tets), triangles_around_(P.size(), triangles) {}
+        max_radius_edge_(max_radius_edge), max_offset_(max_offset), tets_around_(P.size(), tets),
+        triangles_around_(P.size(), triangles), anchor_(P) {}
 
   double min_angle(uint32_t t) const { return min_dihedral(P_, tets_[t]); }
   std::span<const uint32_t> tets_around(uint32_t v) const { return tets_around_[v]; }
 
-  // Tries to move v (in_plane: in the plane of its triangles, else in any direction); true if it moved.
-  bool move(uint32_t v, bool in_plane, int pass) {
+  // Tries to move v (its kind: kInterface, kCurve or kPoint, as `movable` says); true if it moved. `open`: whether
+  // v's star is open (star_of).
+  bool move(uint32_t v, uint8_t kind, int pass, bool& open) {
     const auto mine = tets_around_[v];
     const auto faces = triangles_around_[v];
-    if (mine.empty() || faces.empty() || !closed_star(v, mine, tets_)) return false;
+    if (mine.empty() || faces.empty()) return false;
+    const Star star = star_of(v, mine, faces, tets_, triangles_);
+    if (star == Star::broken || !prepare(v)) return false;
+    open = star == Star::open;
+    const glm::dvec3 start = P_[v];
+    best_ = score(v);
+    best_at_ = start;
+    if (kind != kPoint) search(v, kind, pass, 0);
+    if (best_.below > 0 && max_offset_ > 0) search(v, kind, pass, max_offset_);
+    P_[v] = best_at_;
+    return best_at_ != start;
+  }
+
+ private:
+  // The bounds v's move must hold (the orientations of its tets, the radius-edge limit, its triangles' worst radius
+  // ratio and normals) and its star's mean edge length at v and mean normal; false where the normal vanishes.
+  bool prepare(uint32_t v) {
     sign_.clear();
-    double limit = 1.5 * max_radius_edge_, edge = 0;
-    for (uint32_t t : mine) {
+    limit_ = 1.5 * max_radius_edge_;
+    for (uint32_t t : tets_around_[v]) {
       const Tet& k = tets_[t];
       sign_.push_back(signed_volume(P_, k) > 0 ? 1 : -1);
-      limit = std::max(limit, radius_edge_ratio(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]]));
+      limit_ = std::max(limit_, radius_edge_ratio(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]]));
     }
     normals_.clear();
     glm::dvec3 normal(0.0);
-    double min_ratio = 1;
+    double min_ratio = 1, edge = 0;
+    const auto faces = triangles_around_[v];
     for (uint32_t f : faces) {
       const Triangle& tri = triangles_[f];
       normals_.push_back(glm::normalize(normal_of(P_, tri)));
@@ -88,40 +130,67 @@ class Mover {
       for (uint32_t u : tri) edge += glm::length(P_[u] - P_[v]) / 2;  // each triangle's two edges at v
     }
     if (glm::length(normal) == 0) return false;
-    normal = glm::normalize(normal);
-    edge /= double(faces.size());
-    min_ratio = std::min(min_ratio, 0.5);
-    const glm::dvec3 start = P_[v];
-    Score best = score(v, limit, min_ratio);
-    glm::dvec3 best_at = start;
-    constexpr double kSteps[] = {0.5, 0.3, 0.2, 0.12, 0.06, 0.03};
-    constexpr int kDraws = 12;
-    uint64_t draw = 0;
-    for (double step : kSteps)
-      for (int d = 0; d < kDraws && best.below > 0; ++d, ++draw) {  // until none of v's tets is under the bound
-        const uint64_t key = (uint64_t(v) << 20) ^ (uint64_t(pass) << 12) ^ draw;
-        glm::dvec3 dir(hashed_normal(3 * key), hashed_normal(3 * key + 1), hashed_normal(3 * key + 2));
-        if (in_plane) dir -= glm::dot(dir, normal) * normal;
-        if (glm::length(dir) == 0) continue;
-        glm::dvec3 on;
-        if (!project_(v, best_at + step * edge * glm::normalize(dir), on)) continue;
-        P_[v] = on;
-        const Score s = score(v, limit, min_ratio);
-        if (s.better_than(best)) best = s, best_at = on;
-      }
-    P_[v] = best_at;
-    return best_at != start;
+    normal_ = glm::normalize(normal);
+    edge_ = edge / double(faces.size());
+    min_ratio_ = std::min(min_ratio, 0.5);
+    return true;
   }
 
- private:
-  Score score(uint32_t v, double limit, double min_ratio) const {
+  // Random steps around the best position so far (shrinking), each put back on v's feature; with `offset` > 0, each
+  // then leaves the feature by up to `offset` (along the normal for an interface vertex, in any direction for a curve
+  // vertex or a point, which has no steps of its own): where the material is thinner than its triangles are long, no
+  // position on the feature mends the tets across it.
+  void search(uint32_t v, uint8_t kind, int pass, double offset) {
+    constexpr double kSteps[] = {0.5, 0.3, 0.2, 0.12, 0.06, 0.03};
+    constexpr int kDraws = 12;
+    uint64_t draw = offset > 0 ? kOffsetDraws : 0;
+    for (double step : kSteps)
+      for (int d = 0; d < kDraws && best_.below > 0; ++d, ++draw) {  // until none of v's tets is under the bound
+        glm::dvec3 on = anchor_[v];
+        if (kind != kPoint && !step_on_feature(v, kind, offset > 0, step, random_direction(v, pass, draw), on))
+          continue;
+        if (offset > 0) {
+          const uint64_t other = draw + kOffsetDraws / 2;
+          const glm::dvec3 away = kind == kInterface ? normal_ : random_direction(v, pass, other);
+          const double share = std::clamp(hashed_normal(3 * key(v, pass, other + kOffsetDraws / 4)), -1.0, 1.0);
+          on += share * offset * away;
+        }
+        P_[v] = on;
+        const Score s = score(v);
+        if (s.better_than(best_)) best_ = s, best_at_ = on;
+      }
+  }
+
+  // A step of `step` mean edge lengths along `dir` (in the plane of v's triangles for an interface vertex) from the
+  // best position so far (put back on v's feature first where `from_feature`, so that offsets do not add up over the
+  // passes), put back on v's feature; false where the projection fails.
+  bool step_on_feature(uint32_t v, uint8_t kind, bool from_feature, double step, const glm::dvec3& dir,
+                       glm::dvec3& on) const {
+    const glm::dvec3 along = kind == kInterface ? dir - glm::dot(dir, normal_) * normal_ : dir;
+    if (glm::length(along) == 0) return false;
+    glm::dvec3 from = best_at_;
+    if (from_feature && !project_(v, best_at_, from)) from = best_at_;
+    return project_(v, from + step * edge_ * glm::normalize(along), on);
+  }
+
+  static constexpr uint64_t kOffsetDraws = 1 << 10;  // the offset search's draws, apart from the first search's
+  static uint64_t key(uint32_t v, int pass, uint64_t draw) {
+    return (uint64_t(v) << 20) ^ (uint64_t(pass) << 12) ^ draw;
+  }
+  static glm::dvec3 random_direction(uint32_t v, int pass, uint64_t draw) {
+    const uint64_t k = key(v, pass, draw);
+    const glm::dvec3 d(hashed_normal(3 * k), hashed_normal(3 * k + 1), hashed_normal(3 * k + 2));
+    return glm::length(d) > 0 ? glm::normalize(d) : d;
+  }
+
+  Score score(uint32_t v) const {
     Score s;
     const auto mine = tets_around_[v];
     s.worst = M_PI;
     for (size_t i = 0; i < mine.size(); ++i) {
       const Tet& k = tets_[mine[i]];
       if (signed_volume(P_, k) * sign_[i] <= 0) return s;
-      if (radius_edge_above(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]], limit)) return s;
+      if (radius_edge_above(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]], limit_)) return s;
       const double a = min_dihedral(P_, k);
       s.below += a < target_;
       s.worst = std::min(s.worst, a);
@@ -129,7 +198,7 @@ class Mover {
     const auto faces = triangles_around_[v];
     for (size_t i = 0; i < faces.size(); ++i) {
       const Triangle& tri = triangles_[faces[i]];
-      if (radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]) < min_ratio) return s;
+      if (radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]) < min_ratio_) return s;
       const glm::dvec3 n = normal_of(P_, tri);
       if (glm::dot(n, normals_[i]) <= std::cos(M_PI / 6) * glm::length(n)) return s;
     }
@@ -141,19 +210,57 @@ class Mover {
   const std::vector<Tet>& tets_;
   const std::vector<Triangle>& triangles_;
   const FeatureProjection& project_;
-  const double target_, max_radius_edge_;
+  const double target_, max_radius_edge_, max_offset_;
   const ElementsAround<4> tets_around_;
   const ElementsAround<3> triangles_around_;
+  const std::vector<glm::dvec3> anchor_;  // the positions before the pass: a point's feature
   std::vector<int8_t> sign_;
   std::vector<glm::dvec3> normals_;
+  glm::dvec3 normal_{0.0};
+  double limit_ = 0, min_ratio_ = 0, edge_ = 0;
+  Score best_;
+  glm::dvec3 best_at_{0.0};
 };
+
+// Undoes moves of vertices with open stars (star_of) until no interface triangle with a moved vertex crosses another
+// and no tet around an undone vertex has turned over against `start` (where a neighbour moved after it): the
+// positions before every move are valid, so this ends. Returns how many moves it undid.
+size_t undo_crossings(std::vector<glm::dvec3>& P, const std::vector<glm::dvec3>& start, const std::vector<Tet>& tets,
+                      const std::vector<Triangle>& triangles, const std::vector<uint8_t>& moved_open) {
+  std::vector<uint8_t> check(triangles.size());
+  for (size_t t = 0; t < triangles.size(); ++t)
+    for (uint32_t v : triangles[t]) check[t] |= moved_open[v];
+  if (std::find(check.begin(), check.end(), 1) == check.end()) return 0;
+  const ElementsAround<4> tets_around(P.size(), tets);
+  size_t undone = 0;
+  auto undo = [&](uint32_t v) {
+    if (P[v] == start[v]) return false;
+    P[v] = start[v];
+    ++undone;
+    return true;
+  };
+  std::vector<uint32_t> queue;
+  for (const auto& pair : crossing_triangles(P, triangles, &check))
+    for (uint32_t t : pair)
+      for (uint32_t v : triangles[t])
+        if (undo(v)) queue.push_back(v);
+  while (!queue.empty()) {
+    const uint32_t v = queue.back();
+    queue.pop_back();
+    for (uint32_t k : tets_around[v])
+      if (signed_volume(P, tets[k]) * signed_volume(start, tets[k]) <= 0)
+        for (uint32_t u : tets[k])
+          if (undo(u)) queue.push_back(u);
+  }
+  return undone;
+}
 
 }  // namespace
 
 SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const std::vector<Tet>& tets,
                                           const std::vector<Triangle>& triangles, const std::vector<uint8_t>& movable,
                                           const FeatureProjection& project, double target_deg,
-                                          double max_radius_edge, int passes) {
+                                          double max_radius_edge, double max_offset, int passes) {
   SurfaceSliverReport report;
   const double target = target_deg * M_PI / 180;
   auto is_movable = [&](uint32_t v) { return v < movable.size() && movable[v]; };
@@ -167,7 +274,9 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const
   std::vector<uint32_t> bad = slivers();
   report.slivers_before = report.slivers_after = bad.size();
   if (bad.empty()) return report;
-  Mover mover(points, tets, triangles, project, target, max_radius_edge);
+  const std::vector<glm::dvec3> start = points;
+  std::vector<uint8_t> moved_open(points.size(), 0);
+  Mover mover(points, tets, triangles, project, target, max_radius_edge, max_offset);
   // A vertex is tried again only once something in its star has moved since it last failed.
   std::vector<uint8_t> stale(points.size(), 0);
   for (int pass = 0; pass < passes && !bad.empty(); ++pass) {
@@ -175,10 +284,12 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const
     for (uint32_t t : bad)
       for (uint32_t v : tets[t]) {
         if (!is_movable(v) || stale[v] || mover.min_angle(t) >= target) continue;
-        if (!mover.move(v, movable[v] == 1, pass)) {
+        bool open = false;
+        if (!mover.move(v, movable[v], pass, open)) {
           stale[v] = 1;
           continue;
         }
+        moved_open[v] |= uint8_t(open);
         ++moved;
         for (uint32_t k : mover.tets_around(v))
           for (uint32_t u : tets[k]) stale[u] = 0;
@@ -187,7 +298,9 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const
     bad = slivers();  // a move may leave a tet of its star under the bound where it lifts another
     if (moved == 0) break;
   }
-  report.slivers_after = bad.size();
+  const size_t undone = undo_crossings(points, start, tets, triangles, moved_open);
+  report.moves -= std::min(report.moves, undone);
+  report.slivers_after = undone > 0 ? slivers().size() : bad.size();
   return report;
 }
 

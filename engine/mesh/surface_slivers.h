@@ -11,20 +11,27 @@
 // under the bound or raises their smallest dihedral angle, and only if
 //  - no tet around the vertex turns over and none goes over the radius-edge bound (or its own ratio where higher);
 //  - the vertex's star is closed (every face through it is shared by two of its tets), so with no tet turned over the
-//    tets around it still tile the same ball and no interface triangle can cross another;
+//    tets around it still tile the same ball and no interface triangle can cross another; or open on the outer
+//    boundary (its faces with one tet are its interface triangles with the outside, which is not meshed), and then no
+//    triangle of a moved vertex crosses another once the pass is over (moves undone until none does);
 //  - its interface triangles keep their shape: the worst radius ratio among them stays at least the smaller of 0.5
 //    and its value before, and none turns more than 30 degrees.
 // Connectivity does not change, so the interfaces stay conforming and manifold and the tets stay on their faces; the
 // surface mesh and the volume mesh share the moved positions. A triple-curve vertex moves the same way, its steps in
-// any direction and `project` putting it back on its curve; quadruple points do not move.
+// any direction and `project` putting it back on its curve. Where no position on the feature mends a vertex's tets
+// (the material across them thinner than its triangles are long: four interface vertices, two on each side, nearly
+// in one plane), a second search leaves the feature by up to `max_offset` (along the normal for an interface vertex,
+// in any direction for a curve vertex or a quadruple point, which has only this search), with the same rules.
 // Sequential and deterministic (the steps are hashed_normal of the vertex, the pass and the draw).
 //
 // Inputs:  points     the volume mesh's points, the interface vertices first
 //          tets       the volume mesh's tets (every material's: a vertex's star must be whole)
 //          triangles  the interface triangles over `points`
-//          movable    movable[v] for v < movable.size(): 1 for an interface vertex, 2 for a triple-curve vertex, 0 (and
-//                     every point from movable.size() on) for a point that stays
+//          movable    movable[v] for v < movable.size(): 1 for an interface vertex, 2 for a triple-curve vertex, 3 for a
+//                     quadruple point (moved only with max_offset > 0), 0 (and every point from movable.size() on) for
+//                     a point that stays
 //          project    puts a position near vertex v back on v's feature; false where it cannot
+//          max_offset how far a vertex may leave its feature (0: it stays on it)
 // Outputs: points     moved vertices' new positions
 #include <array>
 #include <cstdint>
@@ -46,6 +53,7 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points,
                                           const std::vector<std::array<uint32_t, 4>>& tets,
                                           const std::vector<std::array<uint32_t, 3>>& triangles,
                                           const std::vector<uint8_t>& movable, const FeatureProjection& project,
-                                          double target_deg = 12.0, double max_radius_edge = 1.5, int passes = 6);
+                                          double target_deg = 12.0, double max_radius_edge = 1.5,
+                                          double max_offset = 0, int passes = 6);
 
 }  // namespace cpmesh::mesh

@@ -1,6 +1,7 @@
 // mesh::move_surface_vertices on a hand-built star: an interface vertex in the plane z = 0, pushed next to the edge
 // of its ring so that its tets are slivers, surrounded by six ring vertices and an apex above and below (twelve
-// tets). Only a move within the plane can mend them.
+// tets). Only a move within the plane can mend them; with the apex below at a tenth of the ring's radius (a layer
+// thinner than its triangles are long), only a move off the plane can.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -18,12 +19,12 @@ struct Star {
   std::vector<std::array<uint32_t, 3>> triangles;  // the interface z = 0: the centre's fan
 };
 
-Star star(const glm::dvec3& centre) {
+Star star(const glm::dvec3& centre, double below = -0.8) {
   Star s;
   s.points.push_back(centre);
   for (int i = 0; i < 6; ++i) s.points.push_back({std::cos(i * M_PI / 3), std::sin(i * M_PI / 3), 0.0});
   s.points.push_back({0, 0, 0.8});
-  s.points.push_back({0, 0, -0.8});
+  s.points.push_back({0, 0, below});
   for (uint32_t i = 0; i < 6; ++i) {
     const uint32_t a = 1 + i, b = 1 + (i + 1) % 6;
     s.triangles.push_back({0, a, b});
@@ -71,6 +72,36 @@ TEST_CASE("move_surface_vertices: an interface vertex next to its ring's edge mo
   CHECK(worst_ratio >= 0.5);
 }
 
+TEST_CASE("move_surface_vertices: on the outer boundary (no tets below the plane), a move stands unless it crosses a triangle") {
+  Star s = star(kNearEdge);
+  std::erase_if(s.tets, [](const auto& t) { return t[3] == 8; });
+  SUBCASE("nothing across the outside: it moves") {
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5);
+    CHECK(r.slivers_before > 0);
+    CHECK(r.moves > 0);
+    CHECK(r.slivers_after == 0);
+    CHECK(smallest_angle_deg(s) >= 12);
+  }
+  SUBCASE("a triangle across the outside, under the plane, that the moved fan would cross: undone") {
+    const uint32_t n = uint32_t(s.points.size());
+    for (const glm::dvec3 p : {glm::dvec3(-3, -3, -0.02), glm::dvec3(3, -3, -0.02), glm::dvec3(0, 3, -0.02)})
+      s.points.push_back(p);
+    s.triangles.push_back({n, n + 1, n + 2});
+    const mesh::FeatureProjection below = [](uint32_t, const glm::dvec3& near, glm::dvec3& on) {
+      on = {near.x, near.y, -0.05};
+      return true;
+    };
+    Star without = s;
+    without.triangles.pop_back();
+    CHECK(mesh::move_surface_vertices(without.points, without.tets, without.triangles, {1}, below, 12.0, 1.5).moves > 0);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, below, 12.0, 1.5);
+    CHECK(r.slivers_before > 0);
+    CHECK(r.moves == 0);
+    CHECK(s.points[0] == kNearEdge);
+    CHECK(mesh::crossing_triangles(s.points, s.triangles).empty());
+  }
+}
+
 TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, or whose projection fails stays") {
   SUBCASE("not movable") {
     Star s = star(kNearEdge);
@@ -78,9 +109,9 @@ TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, 
     CHECK(r.slivers_before == 0);  // no tet under the bound has a movable vertex
     CHECK(s.points[0] == kNearEdge);
   }
-  SUBCASE("the tets below the plane are missing: its star is open") {
+  SUBCASE("a tet below the plane is missing: its star is broken") {
     Star s = star(kNearEdge);
-    std::erase_if(s.tets, [](const auto& t) { return t[3] == 8; });
+    s.tets.pop_back();
     const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5);
     CHECK(r.slivers_before > 0);
     CHECK(r.moves == 0);
@@ -103,5 +134,26 @@ TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, 
     const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, far_up, 12.0, 1.5);
     CHECK(r.moves == 0);
     CHECK(s.points[0] == kNearEdge);
+  }
+}
+
+TEST_CASE("move_surface_vertices: over a layer thinner than its triangles, the vertex leaves its plane by at most the offset") {
+  constexpr double kBelow = -0.1, kOffset = 0.25;
+  Star s = star({0, 0, 0}, kBelow);
+  REQUIRE(smallest_angle_deg(s) < 12);
+  SUBCASE("no offset: no place on the plane mends the tets below") {
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5, 0.0);
+    CHECK(r.slivers_after == r.slivers_before);
+    CHECK(s.points[0].z == 0.0);
+    CHECK(smallest_angle_deg(s) < 12);
+  }
+  SUBCASE("an offset: it moves up, away from the apex below") {
+    const std::vector<glm::dvec3> start = s.points;
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5, kOffset);
+    CHECK(r.slivers_after == 0);
+    CHECK(smallest_angle_deg(s) >= 12);
+    CHECK(s.points[0].z > 0.0);
+    CHECK(s.points[0].z <= kOffset + 1e-12);
+    for (const auto& t : s.tets) CHECK(signed_volume(s.points, t) * signed_volume(start, t) > 0);
   }
 }

@@ -86,6 +86,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--min-dihedral", m.volume.min_dihedral, "Volume mesh: smallest dihedral angle the sliver passes after TetGen aim at, degrees (<= 18)")
       ->check(CLI::Range(0.0, 18.0))
       ->capture_default_str();
+  sub->add_option("--sliver-offset", m.volume.sliver_offset,
+                  "Volume mesh: how far the last sliver pass may move an interface vertex off its interface where the "
+                  "material is too thin for any place on it, in voxels (0: every vertex stays on its interface)")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_option("--volume-runs", m.volume.runs,
                   "Volume mesh: TetGen runs to aim at in parallel, materials with large boundaries cut into pieces "
