@@ -137,8 +137,8 @@ class Mover {
   }
 
   // Random steps around the best position so far (shrinking), each put back on v's feature; with `offset` > 0, each
-  // then leaves the feature by up to `offset` (along the normal for an interface vertex, in any direction for a curve
-  // vertex or a point, which has no steps of its own): where the material is thinner than its triangles are long, no
+  // then leaves the feature by up to `offset` or the step, if shorter (along the normal for an interface vertex, in any
+  // direction for a curve vertex or a point, which has no steps of its own): where the material is thinner than its triangles are long, no
   // position on the feature mends the tets across it.
   void search(uint32_t v, uint8_t kind, int pass, double offset) {
     constexpr double kSteps[] = {0.5, 0.3, 0.2, 0.12, 0.06, 0.03};
@@ -153,7 +153,7 @@ class Mover {
           const uint64_t other = draw + kOffsetDraws / 2;
           const glm::dvec3 away = kind == kInterface ? normal_ : random_direction(v, pass, other);
           const double share = std::clamp(hashed_normal(3 * key(v, pass, other + kOffsetDraws / 4)), -1.0, 1.0);
-          on += share * offset * away;
+          on += share * std::min(offset, step * edge_) * away;  // shrinking with the steps, as tiny triangles need
         }
         P_[v] = on;
         const Score s = score(v);
