@@ -28,7 +28,8 @@ struct InterfaceMesh {
   std::vector<uint8_t> vertex_kind;                // fields::FeatureKind of the particle
   std::vector<std::array<uint32_t, 3>> triangles;  // oriented: the normal points from pair[0] into pair[1]
   std::vector<std::array<uint16_t, 2>> pair;       // material indices (IndicatorFields::labels), pair[0] < pair[1]
-  std::vector<uint32_t> face;                      // the tet face of each triangle (tet * 4 + corner)
+  std::vector<uint32_t> face;                      // the tet face of each triangle (tet * 4 + corner); kNoFace
+                                                   // once flipped (interface_flips.h)
 };
 
 // The face of tet tc / 4 opposite corner tc % 4, ordered so its normal points out of the tet.

@@ -448,10 +448,12 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
              std::to_string(rep.wrong_faces) + " wrong faces left");
 
   begin("smoothing");
-  const SmoothReport smoothed = smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing);
-  rep.smoothing_moves = smoothed.moves;
+  rep.smoothing_moves = smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
+  rep.interface_flips = flip_interface_edges(I, options.flips).flips;
+  if (rep.interface_flips > 0)
+    rep.smoothing_moves += smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
   T.points = I.vertices;  // the volume mesh's region points come from these tets
-  stage_done(count(smoothed.moves) + " vertex moves");
+  stage_done(count(rep.smoothing_moves) + " vertex moves, " + count(rep.interface_flips) + " edge flips");
 
   begin("quality");
   interface_quality(I, kind, labels, rep);

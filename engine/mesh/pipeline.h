@@ -37,6 +37,7 @@
 #include "mesh/smooth.h"
 #include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
+#include "mesh/interface_flips.h"
 #include "mesh/tetgen.h"
 #include "particles/population.h"
 
@@ -51,6 +52,7 @@ struct MeshOptions {
   double junction_protection = 0.55;  // interface particles closer than this x h to a bounding triple curve or
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
+  FlipOptions flips;           // between two smoothings, where flips were made (interface_flips.h; passes 0: off)
   int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
                                // are left (refine.h); each adds samples only where there is room
   // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.
@@ -128,6 +130,7 @@ struct MeshReport {
   size_t junction_vertices = 0;  // vertices taken onto junctions within the crowding radius (extract.h, promote_...)
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
+  size_t interface_flips = 0;  // edges flipped inside one interface (interface_flips.h)
   TriangleStats surface;  // all interface triangles
   TriangleStats junction_triangles, other_triangles;  // with a triple-curve or quadruple-point vertex; without
   std::vector<InterfaceReport> interfaces;

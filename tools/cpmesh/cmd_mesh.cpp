@@ -126,6 +126,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "midpoint; no move takes a triangle below radius ratio 0.3 and below what it was")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
+  sub->add_option("--flip-passes", m.flips.passes,
+                  "Passes of edge flips inside each interface between two smoothings (0: none): an edge is flipped "
+                  "where the quad across it is flat within 15 degrees and the worse triangle gains radius ratio 0.02")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
   sub->add_option("--max-particles", m.max_particles,
                   "Stop after seeding, with an error, if it made more particles than this (0: no limit); thin layers "
@@ -232,6 +237,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["off_feature_particles"] = rep.off_feature_particles;
             j["crowded_particles"] = rep.crowded_particles;
             j["smoothing_moves"] = rep.smoothing_moves;
+            j["interface_flips"] = rep.interface_flips;
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
                            {"refinement_points", rep.refinement_points}, {"refinement_rounds", rep.refinement_rounds}};
