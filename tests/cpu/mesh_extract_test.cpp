@@ -11,6 +11,7 @@
 #include "fields/closest_point_embedding.h"
 #include "mesh/delaunay.h"
 #include "mesh/extract.h"
+#include "ball_points.h"
 
 using namespace cpmesh;
 
@@ -59,12 +60,7 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
   // visits of those neighbours the 2- and 50-pass results differ from the serial ones), several passes. Material
   // indices run to 603: any number of materials.
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::vector<glm::dvec3> points;
-  while (points.size() < 6000) {
-    const glm::dvec3 p(u(rng), u(rng), u(rng));
-    if (glm::length(p) < 1) points.push_back(p);
-  }
+  const std::vector<glm::dvec3> points = test::points_in_ball(6000, rng);
   const auto index = [](uint32_t k) { return uint16_t(k * 150 + 3); };
   const auto region = [&](const glm::dvec3& p) { return index((p.x > 0.1) + 2 * (p.y > -0.2) + (p.z > 0.3)); };
   std::vector<fields::MaterialList> vertex_materials(points.size());
@@ -79,9 +75,7 @@ TEST_CASE("repair_labels and wrong_faces: the same labels and faces as serial lo
   const mesh::Tets T = dm.tets(&adj);
   std::vector<uint16_t> material(T.tets.size());
   for (size_t t = 0; t < T.tets.size(); ++t) {
-    glm::dvec3 c(0.0);
-    for (uint32_t v : T.tets[t]) c += T.points[v];
-    material[t] = rng() % 2 == 0 ? index(rng() % 3) : region(c / 4.0);
+    material[t] = rng() % 2 == 0 ? index(rng() % 3) : region(test::centroid(T, t));
   }
   std::vector<uint16_t> hull(adj.neighbour.size(), 0);
   for (size_t tc = 0; tc < hull.size(); ++tc)

@@ -13,6 +13,7 @@
 #include "mesh/adjacency.h"
 #include "mesh/extract.h"
 #include "mesh/mend_topology.h"
+#include "ball_points.h"
 
 using namespace cpmesh;
 
@@ -79,12 +80,7 @@ TEST_CASE("mend_topology: a sheet thinner than the sampling, pinched at many edg
   // labelled at the tets' centroids; points within 0.1 of the slab lie on interface 1/2, others on their side's
   // material only, so a relabelling far from the slab would make wrong faces.
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::vector<glm::dvec3> points;
-  while (points.size() < 4000) {
-    const glm::dvec3 p(u(rng), u(rng), u(rng));
-    if (glm::length(p) < 1) points.push_back(p);
-  }
+  const std::vector<glm::dvec3> points = test::points_in_ball(4000, rng);
   const auto in_slab = [](const glm::dvec3& p) { return std::abs(p.z - 0.1 * p.x) < 0.01; };
   std::vector<fields::MaterialList> materials(points.size());
   std::vector<uint8_t> kind(points.size(), uint8_t(fields::FeatureKind::interface));
@@ -96,9 +92,7 @@ TEST_CASE("mend_topology: a sheet thinner than the sampling, pinched at many edg
   const mesh::Tets T = dm.tets(&adj);
   std::vector<uint16_t> material(T.tets.size());
   for (size_t t = 0; t < T.tets.size(); ++t) {
-    glm::dvec3 c(0.0);
-    for (uint32_t v : T.tets[t]) c += T.points[v];
-    material[t] = in_slab(c / 4.0) ? 2 : 1;
+    material[t] = in_slab(test::centroid(T, t)) ? 2 : 1;
   }
   std::vector<uint16_t> hull(adj.neighbour.size(), 0);
   for (size_t tc = 0; tc < hull.size(); ++tc)
