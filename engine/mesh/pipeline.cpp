@@ -109,11 +109,12 @@ std::vector<std::array<double, 3>> physical_vertices(const fields::Grid& grid, c
 SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const std::vector<uint32_t>& vertex_feature,
                                          const std::vector<uint8_t>& kind, const QualityOptions& options,
                                          double voxel, InterfaceMesh& I, Tets& V) {
-  // A vertex promoted to a junction (extract.h) stays: its feature is not the junction it stands for.
+  // A vertex promoted to a junction (extract.h) moves as a quadruple point does, by the offset alone: its feature is
+  // not the junction it stands for.
   std::vector<uint8_t> movable(I.vertices.size());
   for (size_t v = 0; v < movable.size(); ++v) {
     const auto own = F.embedding.features[vertex_feature[v]].kind;
-    movable[v] = kind[v] != uint8_t(own)                      ? 0
+    movable[v] = kind[v] != uint8_t(own)                      ? 3
                  : own == fields::FeatureKind::interface     ? 1
                  : own == fields::FeatureKind::triple_curve  ? 2
                                                              : 3;
@@ -124,12 +125,14 @@ SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const st
   const double offset = options.sliver_offset * voxel;
   SurfaceSliverReport r = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, options.min_dihedral,
                                                 options.max_radius_edge, offset);
-  if (r.moves > 0 && r.slivers_after > 0) {  // the inner vertices around the moved ones may find better places now
+  // The inner vertices around the moved ones may find better places now, and then the moved ones again.
+  for (int round = 0; round < 3 && r.moves > 0 && r.slivers_after > 0; ++round) {
     improve_tets(V.points, V.tets, I.vertices.size(), options.min_dihedral, options.max_radius_edge);
     const SurfaceSliverReport again = move_surface_vertices(V.points, V.tets, I.triangles, movable, project,
                                                             options.min_dihedral, options.max_radius_edge, offset);
-    r.moves += again.moves;
     r.slivers_after = again.slivers_after;
+    if (again.moves == 0) break;
+    r.moves += again.moves;
   }
   if (r.moves > 0) std::copy_n(V.points.begin(), I.vertices.size(), I.vertices.begin());
   return r;

@@ -28,8 +28,8 @@
 //          tets       the volume mesh's tets (every material's: a vertex's star must be whole)
 //          triangles  the interface triangles over `points`
 //          movable    movable[v] for v < movable.size(): 1 for an interface vertex, 2 for a triple-curve vertex, 3 for a
-//                     quadruple point (moved only with max_offset > 0), 0 (and every point from movable.size() on) for
-//                     a point that stays
+//                     quadruple point or any vertex with no feature to follow (moved only by the offset, so only with
+//                     max_offset > 0), 0 (and every point from movable.size() on) for a point that stays
 //          project    puts a position near vertex v back on v's feature; false where it cannot
 //          max_offset how far a vertex may leave its feature (0: it stays on it)
 // Outputs: points     moved vertices' new positions
