@@ -89,8 +89,8 @@ class Mover {
   double min_angle(uint32_t t) const { return min_dihedral(P_, tets_[t]); }
   std::span<const uint32_t> tets_around(uint32_t v) const { return tets_around_[v]; }
 
-  // Tries to move v (its kind: kInterface, kCurve or kPoint, as `movable` says); true if it moved. `open`: whether
-  // v's star is open (star_of).
+  // Tries to move v (its kind as `movable` says: kInterface, 2 for a curve vertex, or kPoint); true if it moved.
+  // `open`: whether v's star is open (star_of).
   bool move(uint32_t v, uint8_t kind, int pass, bool& open) {
     const auto mine = tets_around_[v];
     const auto faces = triangles_around_[v];
@@ -213,7 +213,7 @@ class Mover {
   const double target_, max_radius_edge_, max_offset_;
   const ElementsAround<4> tets_around_;
   const ElementsAround<3> triangles_around_;
-  const std::vector<glm::dvec3> anchor_;  // the positions before the pass: a point's feature
+  const std::vector<glm::dvec3> anchor_;  // the positions before the passes: where a kPoint vertex belongs
   std::vector<int8_t> sign_;
   std::vector<glm::dvec3> normals_;
   glm::dvec3 normal_{0.0};
