@@ -554,6 +554,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
           material_of[i] = m;
         }
       });
+      const FaceConformity conformity = nonconforming_faces(V.points, V.tets, material_of, I.triangles, I.pair);
+      rep.nonconforming_faces = conformity.mismatches;
+      const glm::dvec3 at = grid.to_physical(conformity.first);
+      rep.nonconforming_at = {at.x, at.y, at.z};
       for (const auto& t : I.triangles)  // -Y: the interface triangles are kept as they are
         out.triangles.push_back({renumber[t[0]], renumber[t[1]], renumber[t[2]]});
       out.triangle_pair = result.surfaces.triangle_pair;
@@ -599,6 +603,13 @@ std::vector<std::string> guarantee_failures(const MeshReport& rep) {
   for (const auto& mr : rep.materials)
     if (mr.odd_edges > 0) out.push_back("material " + std::to_string(mr.label) + " not closed (" + std::to_string(mr.odd_edges) + " open edges)");
   if (rep.crossing_triangles > 0) out.push_back(std::to_string(rep.crossing_triangles) + " pairs of crossing interface triangles");
+  if (rep.nonconforming_faces > 0) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%zu tet faces or interface triangles where the tets' materials and the interfaces "
+                  "disagree, the first at (%.4g, %.4g, %.4g)", rep.nonconforming_faces, rep.nonconforming_at[0],
+                  rep.nonconforming_at[1], rep.nonconforming_at[2]);
+    out.push_back(text);
+  }
   if (!out.empty() && !where.empty()) out.push_back("faces the refinement could not mend: " + where);
   return out;
 }

@@ -146,12 +146,17 @@ struct MeshReport {
   size_t volume_separator_points = 0;               // points of the pieces' separators (split_material.h)
   size_t interfaces_manifold = 0, materials_closed = 0;
   size_t crossing_triangles = 0;  // pairs of interface triangles that cross each other (quality.h; 0 for a valid mesh)
+  // Tet faces and interface triangles that disagree (quality.h nonconforming_faces; 0 for a valid mesh), the first
+  // one's place in physical units.
+  size_t nonconforming_faces = 0;
+  std::array<double, 3> nonconforming_at{};
 };
 
 constexpr size_t kMaxRefinementLeft = 20;
 
 // What keeps the mesh from the guarantee (docs/design.md, "The guarantee"): wrong faces left, interfaces that are
-// not manifold or whose boundary leaves the triple curves, materials not closed, crossing triangles; one line each,
+// not manifold or whose boundary leaves the triple curves, materials not closed, crossing triangles, tets whose
+// materials disagree with the interface triangles; one line each,
 // naming the labels and where. Empty for a valid mesh. The CLI exits non-zero when it is not empty.
 std::vector<std::string> guarantee_failures(const MeshReport& report);
 

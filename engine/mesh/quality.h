@@ -131,6 +131,19 @@ std::vector<std::array<uint32_t, 2>> crossing_triangles(const std::vector<glm::d
 // Edges of the triangles used an odd number of times (0: closed).
 size_t odd_edges(const std::vector<std::array<uint32_t, 3>>& triangles);
 
+// Where the tets' materials and the interface triangles disagree: tet faces between two materials (or between a
+// material and the outside, material 0, which has no tets) that are no interface triangle of that pair, and interface
+// triangles that are no such face or have another pair. `first` is the centroid of the first one in face order.
+// Sorts every tet face once (parallel); the conformity the guarantee assumes and no stage checks on its own.
+struct FaceConformity {
+  size_t mismatches = 0;
+  glm::dvec3 first{0.0};
+};
+FaceConformity nonconforming_faces(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 4>>& tets,
+                                   const std::vector<uint16_t>& material,
+                                   const std::vector<std::array<uint32_t, 3>>& triangles,
+                                   const std::vector<std::array<uint16_t, 2>>& pair);
+
 struct TetStats {
   size_t tets = 0;
   double min_dihedral_deg = 0, max_dihedral_deg = 0, max_radius_edge = 0, mean_radius_edge = 0;

@@ -191,3 +191,25 @@ TEST_CASE("check_edges and triangle_sums_by_group: each interface's and material
   }
   CHECK(odd > 0);
 }
+
+TEST_CASE("nonconforming_faces: two tets of two materials agree with their interface triangles, and not once one is gone or relabelled") {
+  // Tets (0, 1, 2, 3) of material 1 and (1, 2, 3, 4) of material 2 share the face (1, 2, 3); their other faces lie on
+  // the outside, material 0.
+  const std::vector<glm::dvec3> P = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
+  const std::vector<std::array<uint32_t, 4>> tets = {{0, 1, 2, 3}, {1, 2, 3, 4}};
+  std::vector<uint16_t> material = {1, 2};
+  std::vector<std::array<uint32_t, 3>> triangles = {{1, 2, 3}, {0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 4}, {1, 3, 4}, {2, 3, 4}};
+  std::vector<std::array<uint16_t, 2>> pair = {{1, 2}, {0, 1}, {0, 1}, {0, 1}, {0, 2}, {0, 2}, {0, 2}};
+  CHECK(mesh::nonconforming_faces(P, tets, material, triangles, pair).mismatches == 0);
+  SUBCASE("the interface triangle between them missing") {
+    triangles.erase(triangles.begin());
+    pair.erase(pair.begin());
+    const auto c = mesh::nonconforming_faces(P, tets, material, triangles, pair);
+    CHECK(c.mismatches == 1);
+    CHECK(glm::length(c.first - glm::dvec3(1.0 / 3)) < 1e-12);  // the centroid of (1, 2, 3)
+  }
+  SUBCASE("the second tet of the first material: the shared face is no interface, its outer faces have another pair") {
+    material[1] = 1;
+    CHECK(mesh::nonconforming_faces(P, tets, material, triangles, pair).mismatches == 7);
+  }
+}

@@ -252,6 +252,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
               j["interfaces"].push_back(e);
             }
             j["crossing_triangles"] = rep.crossing_triangles;
+            j["nonconforming_faces"] = rep.nonconforming_faces;
             j["materials"] = nlohmann::json::array();
             for (const auto& mr : rep.materials)
               j["materials"].push_back({{"label", mr.label}, {"boundary_triangles", mr.boundary_triangles},
