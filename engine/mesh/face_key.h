@@ -1,7 +1,7 @@
 #pragma once
 // A triangle's three vertex indices in ascending order: the key under which the two tets sharing a face (or a tet
-// face and an interface triangle) meet, whatever order each lists them in. Used by the tet adjacency (extract.cpp)
-// and the sliver pass (smooth.cpp).
+// face and an interface triangle) meet, whatever order each lists them in. Used by the tet adjacency (extract.cpp),
+// the sliver pass (smooth.cpp) and the conformity check (quality.cpp nonconforming_faces).
 #include <algorithm>
 #include <array>
 #include <cstddef>

@@ -18,6 +18,8 @@
 
 #include "io/synth_volumes.h"
 #include "host/host_array.h"
+#include "mesh/elements_around.h"
+#include "mesh/face_key.h"
 #include "mesh/grouped.h"
 
 namespace cpmesh::mesh {
@@ -519,26 +521,16 @@ FaceConformity nonconforming_faces(const std::vector<glm::dvec3>& P, const std::
                                    const std::vector<uint16_t>& material,
                                    const std::vector<std::array<uint32_t, 3>>& triangles,
                                    const std::vector<std::array<uint16_t, 2>>& pair) {
-  using Key = std::array<uint32_t, 3>;
   struct Side {
-    Key key;
+    FaceKey key;
     uint16_t a, b;  // materials, a <= b
     bool operator<(const Side& o) const { return key != o.key ? key < o.key : a != o.a ? a < o.a : b < o.b; }
     bool operator==(const Side& o) const { return key == o.key && a == o.a && b == o.b; }
   };
-  auto sorted = [](Key k) {
-    std::sort(k.begin(), k.end());
-    return k;
-  };
-  std::vector<Side> faces(4 * tets.size());
+  std::vector<Side> faces(4 * tets.size(), {FaceKey({0, 0, 0}), 0, 0});
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t)
-      for (int skip = 0; skip < 4; ++skip) {
-        Key k{};
-        for (int i = 0, n = 0; i < 4; ++i)
-          if (i != skip) k[size_t(n++)] = tets[t][size_t(i)];
-        faces[4 * t + size_t(skip)] = {sorted(k), material[t], material[t]};
-      }
+      for (int i = 0; i < 4; ++i) faces[4 * t + size_t(i)] = {FaceKey(face_opposite(tets[t], i)), material[t], material[t]};
   });
   tbb::parallel_sort(faces.begin(), faces.end());
   std::vector<Side> between;  // each face between two materials once, as (key, the pair)
@@ -549,14 +541,15 @@ FaceConformity nonconforming_faces(const std::vector<glm::dvec3>& P, const std::
     if (m1 != m2 || j - i > 2) between.push_back({faces[i].key, std::min(m1, m2), std::max(m1, m2)});
     i = j;
   }
-  std::vector<Side> given(triangles.size());
-  for (size_t t = 0; t < triangles.size(); ++t) given[t] = {sorted(triangles[t]), pair[t][0], pair[t][1]};
+  std::vector<Side> given;
+  given.reserve(triangles.size());
+  for (size_t t = 0; t < triangles.size(); ++t) given.push_back({FaceKey(triangles[t]), pair[t][0], pair[t][1]});
   std::sort(given.begin(), given.end());
   std::vector<Side> odd;
   std::set_symmetric_difference(between.begin(), between.end(), given.begin(), given.end(), std::back_inserter(odd));
   FaceConformity out;
   out.mismatches = odd.size();
-  if (!odd.empty()) out.first = (P[odd[0].key[0]] + P[odd[0].key[1]] + P[odd[0].key[2]]) / 3.0;
+  if (!odd.empty()) out.first = (P[odd[0].key.v[0]] + P[odd[0].key.v[1]] + P[odd[0].key.v[2]]) / 3.0;
   return out;
 }
 
