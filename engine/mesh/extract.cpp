@@ -45,12 +45,13 @@ glm::dvec3 label_point(const Tets& T, uint32_t t) {
   return circumcentre(T.points[v[0]], T.points[v[1]], T.points[v[2]], T.points[v[3]], ok);
 }
 
+uint16_t label_tet(const fields::IndicatorFields& F, const Tets& T, uint32_t t) {
+  return uint16_t(F.material_at(glm::clamp(label_point(T, t) / F.grid.spacing, glm::dvec3(0.0), glm::dvec3(F.grid.dims - 1))));
+}
+
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& F, const Tets& T) {
   std::vector<uint16_t> m(T.tets.size());
-  const glm::dvec3 hi = glm::dvec3(F.grid.dims - 1);
-  tbb::parallel_for(size_t(0), T.tets.size(), [&](size_t t) {
-    m[t] = uint16_t(F.material_at(glm::clamp(label_point(T, uint32_t(t)) / F.grid.spacing, glm::dvec3(0.0), hi)));
-  });
+  tbb::parallel_for(size_t(0), T.tets.size(), [&](size_t t) { m[t] = label_tet(F, T, uint32_t(t)); });
   return m;
 }
 

@@ -40,7 +40,8 @@ glm::dvec3 circumcentre(const glm::dvec3& a, const glm::dvec3& b, const glm::dve
 glm::dvec3 label_point(const Tets& tets, uint32_t t);
 // Where the material outside hull face tc is read (see hull_materials).
 glm::dvec3 hull_sample_point(const fields::IndicatorFields& fields, const Tets& tets, uint32_t tc);
-// Material index of every tet at its circumcentre (clamped to the grid; a flat tet uses its centroid).
+// Material index of tet t at its circumcentre (clamped to the grid; a flat tet uses its centroid), and of every tet.
+uint16_t label_tet(const fields::IndicatorFields& fields, const Tets& tets, uint32_t t);
 std::vector<uint16_t> label_tets(const fields::IndicatorFields& fields, const Tets& tets);
 // Per hull face (indexed like Adjacency::neighbour): the material outside it, sampled half a voxel plus the face's
 // circumradius (at most 4 voxels) out, beyond any surface its corners sample; 0 for inner faces.

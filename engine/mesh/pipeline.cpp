@@ -514,12 +514,10 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       // The output has only the vertices of its tets: particles left out of the interfaces are in no tet, and FEM
       // readers reject or warn about nodes no element uses.
       auto& out = result.volume;
-      // Tets in no seeded region take the fields' material: TetGen numbers an unseeded region itself (seen in the
-      // one-run fallback on the 32^3 shells).
-      auto seeded = [&](int region) { return region >= 1 && size_t(region) <= labels.size(); };
-      std::vector<uint16_t> fallback;
-      if (V.region.size() != V.tets.size() || !std::all_of(V.region.begin(), V.region.end(), seeded))
-        fallback = label_tets(F.fields, V);
+      // Tets in no seeded region (TetGen numbers an unseeded region itself: the one-run fallback on the 32^3 shells)
+      // take their neighbours' material, or their interfaces' side, the fields' only where neither says.
+      const std::vector<uint16_t> material_of = tet_materials(V, I.triangles, I.pair, labels.size(),
+                                                              [&](uint32_t t) { return label_tet(F.fields, V, t); });
       // Used vertices (of a tet or an interface triangle) keep their order: the interface vertices first, then the
       // points the runs added.
       std::vector<uint8_t> used(V.points.size(), 0);
@@ -534,7 +532,6 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       for (size_t v = 0; v < V.points.size(); ++v)
         if (used[v]) renumber[v] = kept++;
       out.vertices.resize(kept);
-      std::vector<uint16_t> material_of(V.tets.size());
       out.tets.resize(V.tets.size());
       out.tet_material.resize(V.tets.size());
       tbb::parallel_for(tbb::blocked_range<size_t>(0, V.points.size()), [&](const tbb::blocked_range<size_t>& r) {
@@ -546,12 +543,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       });
       tbb::parallel_for(tbb::blocked_range<size_t>(0, V.tets.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
-          const int region = V.region.empty() ? 0 : V.region[i];
-          const uint16_t m = seeded(region) ? uint16_t(region - 1) : fallback[i];
           const auto& t = V.tets[i];
           out.tets[i] = {renumber[t[0]], renumber[t[1]], renumber[t[2]], renumber[t[3]]};
-          out.tet_material[i] = labels[m];
-          material_of[i] = m;
+          out.tet_material[i] = labels[material_of[i]];
         }
       });
       const FaceConformity conformity = nonconforming_faces(V.points, V.tets, material_of, I.triangles, I.pair);

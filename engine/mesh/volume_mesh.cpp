@@ -232,6 +232,77 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
 
 namespace {
 
+// The most common value of `votes` (ties: the smallest), or `none` where it is empty.
+uint16_t most_votes(const std::map<uint16_t, size_t>& votes, uint16_t none) {
+  uint16_t best = none;
+  size_t most = 0;
+  for (const auto& [m, n] : votes)
+    if (n > most) best = m, most = n;
+  return best;
+}
+
+}  // namespace
+
+std::vector<uint16_t> tet_materials(const Tets& V, const std::vector<std::array<uint32_t, 3>>& triangles,
+                                    const std::vector<std::array<uint16_t, 2>>& pair, size_t materials,
+                                    const std::function<uint16_t(uint32_t)>& fallback) {
+  constexpr uint16_t kUnknown = UINT16_MAX;
+  constexpr uint32_t kNone = UINT32_MAX;
+  const bool regions = V.region.size() == V.tets.size();
+  std::vector<uint16_t> m(V.tets.size(), kUnknown);
+  size_t unknown = 0;
+  for (size_t t = 0; t < V.tets.size(); ++t) {
+    const int r = regions ? V.region[t] : 0;
+    if (r >= 1 && size_t(r) <= materials)
+      m[t] = uint16_t(r - 1);
+    else
+      ++unknown;
+  }
+  if (unknown == 0) return m;
+  const ElementsAround<4> around(V.points.size(), V.tets);
+  const ElementsAround<3> on(V.points.size(), triangles);
+  std::vector<uint8_t> seen(V.tets.size(), 0);
+  std::vector<uint32_t> part;
+  for (uint32_t start = 0; start < V.tets.size(); ++start) {
+    if (m[start] != kUnknown || seen[start]) continue;
+    // The part: the unknown tets reached from `start` across faces that are no interface triangle.
+    std::map<uint16_t, size_t> across, sides;
+    part.assign(1, start);
+    seen[start] = 1;
+    for (size_t q = 0; q < part.size(); ++q) {
+      const uint32_t t = part[q];
+      for (int i = 0; i < 4; ++i) {
+        const auto f = face_opposite(V.tets[t], i);
+        if (const uint32_t k = find_triangle(on, triangles, f); k != kNone) {
+          const auto& g = triangles[k];
+          const glm::dvec3 n = glm::cross(V.points[g[1]] - V.points[g[0]], V.points[g[2]] - V.points[g[0]]);
+          const uint16_t side = pair[k][glm::dot(n, V.points[V.tets[t][size_t(i)]] - V.points[g[0]]) > 0 ? 1 : 0];
+          if (side < materials) ++sides[side];
+          continue;
+        }
+        const uint32_t u = tet_across(around, V.tets, t, i);
+        if (u == kNone) continue;
+        if (m[u] != kUnknown) {
+          ++across[m[u]];
+        } else if (!seen[u]) {
+          seen[u] = 1;
+          part.push_back(u);
+        }
+      }
+    }
+    uint16_t material = most_votes(across, most_votes(sides, kUnknown));
+    if (material == kUnknown) {
+      std::map<uint16_t, size_t> fields;
+      for (uint32_t t : part) ++fields[fallback(t)];
+      material = most_votes(fields, 0);
+    }
+    for (uint32_t t : part) m[t] = material;
+  }
+  return m;
+}
+
+namespace {
+
 // One material: TetGen in a child process (a failing TetGen can kill its process; only the points it added come
 // back), then the sliver passes of smooth.h here, where they may use the thread pool (a forked child of a
 // multithreaded process must not).

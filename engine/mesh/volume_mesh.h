@@ -40,6 +40,7 @@
 //          tets.tets, tets.region (the seed attribute: material + 1; 0 where a tet is in no seeded region)
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -102,6 +103,17 @@ std::vector<double> material_work(const std::vector<glm::dvec3>& points, const s
 // small as whole shares allow; with no more runs than materials, one each.
 std::vector<int> share_runs(const std::vector<double>& work, const std::vector<size_t>& triangles, size_t runs,
                             size_t min_piece_triangles);
+
+// Each tet's material index from V.region, for output: r - 1 where a seed named its region (1 <= r <= materials).
+// A tet of any other region (TetGen numbers the regions no seed names, and has left a single tet of a named region
+// at attribute 0 inside it: thin-128) takes the material across its faces that are no interface triangle, flooded
+// from the named tets, since the tets on the two sides of such a face are of one material in a conforming mesh; a
+// part with no named tet that interface triangles enclose takes the side of them it lies on (`triangles` oriented
+// from pair[0] into pair[1]), by a vote over its faces on them; only a part with neither takes `fallback(t)` of its
+// tets, by a vote.
+std::vector<uint16_t> tet_materials(const Tets& V, const std::vector<std::array<uint32_t, 3>>& triangles,
+                                    const std::vector<std::array<uint16_t, 2>>& pair, size_t materials,
+                                    const std::function<uint16_t(uint32_t)>& fallback);
 
 MaterialMeshes mesh_materials(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
                               const std::vector<std::array<uint16_t, 2>>& pair, const std::vector<Region>& seeds,

@@ -11,6 +11,7 @@
 
 #include "io/synth_volumes.h"
 #include "mesh/quality.h"
+#include "mesh/volume_mesh.h"
 
 using namespace cpmesh;
 
@@ -211,5 +212,31 @@ TEST_CASE("nonconforming_faces: two tets of two materials agree with their inter
   SUBCASE("the second tet of the first material: the shared face is no interface, its outer faces have another pair") {
     material[1] = 1;
     CHECK(mesh::nonconforming_faces(P, tets, material, triangles, pair).mismatches == 7);
+  }
+}
+
+TEST_CASE("tet_materials: a tet in no named region takes its neighbours' material, else its interfaces' side, else the fallback's") {
+  // Tet A = (0, 1, 2, 3) of region 2 (material 1) and B = (1, 2, 3, 4) of region 3 (material 2) share the interface
+  // triangle (1, 2, 3), oriented from material 1 into 2; C = (0, 1, 2, 5) lies below A across the face (0, 1, 2),
+  // which is no interface triangle, at region 0 (TetGen left one such tet in thin-128's material 40).
+  mesh::Tets V;
+  V.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {0.3, 0.3, -1}};
+  V.tets = {{0, 1, 2, 3}, {1, 2, 3, 4}, {0, 1, 2, 5}};
+  V.region = {2, 3, 0};
+  std::vector<std::array<uint32_t, 3>> triangles = {{1, 2, 3}};
+  const std::vector<std::array<uint16_t, 2>> pair = {{1, 2}};
+  auto never = [](uint32_t) -> uint16_t { FAIL("the fallback is not asked"); return 0; };
+  CHECK(mesh::tet_materials(V, triangles, pair, 3, never) == std::vector<uint16_t>{1, 2, 1});
+  SUBCASE("A and C unnamed: they take the side of (1, 2, 3) they lie on") {
+    V.region = {0, 3, 7};  // 7: a region TetGen numbered, past the materials
+    CHECK(mesh::tet_materials(V, triangles, pair, 3, never) == std::vector<uint16_t>{1, 2, 1});
+    triangles[0] = {1, 3, 2};  // turned round: A and C are on material 2's side
+    CHECK(mesh::tet_materials(V, triangles, pair, 3, never) == std::vector<uint16_t>{2, 2, 2});
+  }
+  SUBCASE("nothing named, no interface: the fallback's vote over the part") {
+    V.region.clear();
+    triangles.clear();
+    CHECK(mesh::tet_materials(V, triangles, {}, 3, [](uint32_t t) { return uint16_t(t == 1 ? 0 : 2); }) ==
+          std::vector<uint16_t>{2, 2, 2});
   }
 }
