@@ -14,15 +14,11 @@ using Edge = std::array<uint32_t, 2>;
 
 Edge edge_of(uint32_t a, uint32_t b) { return {std::min(a, b), std::max(a, b)}; }
 
-glm::dvec3 normal_of(const std::vector<glm::dvec3>& V, const Triangle& t) {
-  return glm::cross(V[t[1]] - V[t[0]], V[t[2]] - V[t[0]]);
-}
-
 double ratio_of(const std::vector<glm::dvec3>& V, const Triangle& t) { return radius_ratio(V[t[0]], V[t[1]], V[t[2]]); }
 
 // Whether the normals of x and y are within the angle whose cosine is `min_cos` (false for a degenerate one).
 bool flat(const std::vector<glm::dvec3>& V, const Triangle& x, const Triangle& y, double min_cos) {
-  const glm::dvec3 a = normal_of(V, x), b = normal_of(V, y);
+  const glm::dvec3 a = triangle_normal(V, x), b = triangle_normal(V, y);
   const double la = glm::length(a), lb = glm::length(b);
   return la > 0 && lb > 0 && glm::dot(a, b) >= min_cos * la * lb;
 }

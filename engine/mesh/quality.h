@@ -54,6 +54,11 @@ inline double tet_volume(const glm::dvec3& a, const glm::dvec3& b, const glm::dv
   return std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6.0;
 }
 
+// Triangle t's normal over points P, twice its area long, by its vertex order (b - a) x (c - a).
+inline glm::dvec3 triangle_normal(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 3>& t) {
+  return glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
+}
+
 struct TriangleStats {
   size_t triangles = 0;
   double mean_radius_ratio = 0, min_radius_ratio = 0, share_below_half = 0;

@@ -193,7 +193,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
   std::vector<std::pair<double, double>> grazing;           // (centroid along the axis, area) of the grazing triangles
   for (size_t i = 0; i < tri.size(); ++i) {
     const auto& t = tri[i];
-    const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
+    const glm::dvec3 n = triangle_normal(P, t);
     const double area2 = glm::length(n), centroid = (P[t[0]][axis] + P[t[1]][axis] + P[t[2]][axis]) / 3;
     flux[i] = {centroid, n[axis] / 2};
     if (area2 > 0 && std::fabs(n[axis]) >= kGrazeCos * area2) grazing.push_back({centroid, area2 / 2});
@@ -344,7 +344,7 @@ MaterialSplit split_material(const std::vector<glm::dvec3>& points, const std::v
     if (wall[tc] == UINT32_MAX) continue;
     const auto& t = tri[wall[tc]];
     found[wall[tc]] = 1;
-    const glm::dvec3 n = glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
+    const glm::dvec3 n = triangle_normal(P, t);
     const uint8_t s = glm::dot(n, D.points[D.tets[tc / 4][tc % 4]] - P[t[0]]) < 0 ? kIn : kOut;
     if (s == kIn) inside_tet[wall[tc]] = uint32_t(tc / 4);
     uint8_t& now = side[tc / 4];

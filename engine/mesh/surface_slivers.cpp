@@ -19,10 +19,6 @@ double signed_volume(const std::vector<glm::dvec3>& P, const Tet& t) {
   return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
 }
 
-glm::dvec3 normal_of(const std::vector<glm::dvec3>& P, const Triangle& t) {
-  return glm::cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
-}
-
 enum class Star { closed, open, broken };
 
 // Closed: every face through v is shared by exactly two of v's tets, so v's tets tile a ball around it. Open: v is on
@@ -41,13 +37,8 @@ Star star_of(uint32_t v, std::span<const uint32_t> mine, std::span<const uint32_
   };
   std::vector<Edge> edges;
   for (uint32_t t : mine)
-    for (int skip = 0; skip < 4; ++skip) {
-      if (tets[t][size_t(skip)] == v) continue;
-      std::array<uint32_t, 3> face{};
-      for (int i = 0, n = 0; i < 4; ++i)
-        if (i != skip) face[size_t(n++)] = tets[t][size_t(i)];
-      edges.push_back(edge_of(face));
-    }
+    for (int skip = 0; skip < 4; ++skip)
+      if (tets[t][size_t(skip)] != v) edges.push_back(edge_of(face_opposite(tets[t], skip)));
   std::vector<Edge> on_interface;
   for (uint32_t f : faces) on_interface.push_back(edge_of(triangles[f]));
   std::sort(edges.begin(), edges.end());
@@ -124,8 +115,8 @@ class Mover {
     const auto faces = triangles_around_[v];
     for (uint32_t f : faces) {
       const Triangle& tri = triangles_[f];
-      normals_.push_back(glm::normalize(normal_of(P_, tri)));
-      normal += normal_of(P_, tri);
+      normals_.push_back(glm::normalize(triangle_normal(P_, tri)));
+      normal += triangle_normal(P_, tri);
       min_ratio = std::min(min_ratio, radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]));
       for (uint32_t u : tri) edge += glm::length(P_[u] - P_[v]) / 2;  // each triangle's two edges at v
     }
@@ -199,7 +190,7 @@ class Mover {
     for (size_t i = 0; i < faces.size(); ++i) {
       const Triangle& tri = triangles_[faces[i]];
       if (radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]) < min_ratio_) return s;
-      const glm::dvec3 n = normal_of(P_, tri);
+      const glm::dvec3 n = triangle_normal(P_, tri);
       if (glm::dot(n, normals_[i]) <= std::cos(M_PI / 6) * glm::length(n)) return s;
     }
     s.valid = true;

@@ -212,7 +212,7 @@ void drop_pockets(Tets& V, const std::vector<std::array<uint32_t, 3>>& boundary,
             const uint32_t i = find_triangle(around, boundary, face_opposite(V.tets[t], c));
             if (i == UINT32_MAX) continue;
             const auto& f = boundary[i];
-            const glm::dvec3 n = glm::cross(V.points[f[1]] - V.points[f[0]], V.points[f[2]] - V.points[f[0]]);
+            const glm::dvec3 n = triangle_normal(V.points, f);
             votes[V.region[t]] += glm::dot(n, V.points[V.tets[t][size_t(c)]] - V.points[f[0]]) < 0 ? 1 : -1;
           }
         return votes;
@@ -274,9 +274,9 @@ std::vector<uint16_t> tet_materials(const Tets& V, const std::vector<std::array<
       for (int i = 0; i < 4; ++i) {
         const auto f = face_opposite(V.tets[t], i);
         if (const uint32_t k = find_triangle(on, triangles, f); k != kNone) {
-          const auto& g = triangles[k];
-          const glm::dvec3 n = glm::cross(V.points[g[1]] - V.points[g[0]], V.points[g[2]] - V.points[g[0]]);
-          const uint16_t side = pair[k][glm::dot(n, V.points[V.tets[t][size_t(i)]] - V.points[g[0]]) > 0 ? 1 : 0];
+          const glm::dvec3 n = triangle_normal(V.points, triangles[k]);
+          const glm::dvec3 into = V.points[V.tets[t][size_t(i)]] - V.points[triangles[k][0]];
+          const uint16_t side = pair[k][glm::dot(n, into) > 0 ? 1 : 0];
           if (side < materials) ++sides[side];
           continue;
         }
