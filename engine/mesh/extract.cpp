@@ -241,8 +241,7 @@ std::vector<uint32_t> component_representatives(const Tets& T, const Adjacency& 
   tbb::parallel_for(tbb::blocked_range<size_t>(0, adj.neighbour.size(), size_t(1) << 14),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t tc = r.begin(); tc != r.end(); ++tc)
-                        if (adj.neighbour[tc] == Adjacency::kHull &&
-                            material_across(adj, hull, material, uint32_t(tc)) == material[tc / 4])
+                        if (opens_to_outside(adj, hull, material, uint32_t(tc)))
                           std::atomic_ref<uint8_t>(unbounded[root[tc / 4]]).store(1, std::memory_order_relaxed);
                     });
   std::vector<uint32_t> reps;

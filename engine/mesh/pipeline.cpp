@@ -172,6 +172,32 @@ void check_label_limit(const io::LabelVolume& v, const LabelCensus& census) {
                                 " (merge or drop labels with --materials)");
 }
 
+namespace {
+
+// Per material: its voxels' volume in the volume meshed (before the well-composed pass, which trades voxels between
+// labels to make the map well-composed, not to change what they are).
+std::vector<double> label_volume_targets(const LabelCensus& census, const std::vector<uint16_t>& labels,
+                                         const fields::Grid& grid) {
+  std::vector<double> target(labels.size());
+  for (size_t m = 0; m < labels.size(); ++m)
+    target[m] = double(census[labels[m]]) * grid.spacing.x * grid.spacing.y * grid.spacing.z;
+  return target;
+}
+
+// Per material: 1 where its volume is measured (label_volumes.h): it has at least min_voxels voxels and no region of
+// it reaches the Delaunay hull (the background around the padded volume does).
+std::vector<uint8_t> bounded_labels(const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                    const std::vector<uint16_t>& material, const LabelCensus& census,
+                                    const std::vector<uint16_t>& labels, uint64_t min_voxels) {
+  std::vector<uint8_t> bounded(labels.size());
+  for (size_t m = 0; m < labels.size(); ++m) bounded[m] = census[labels[m]] >= int64_t(min_voxels);
+  for (size_t tc = 0; tc < adj.neighbour.size(); ++tc)
+    if (opens_to_outside(adj, hull, material, uint32_t(tc))) bounded[material[tc / 4]] = 0;
+  return bounded;
+}
+
+}  // namespace
+
 MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const MeshOptions& options,
                        const StageCallback& on_stage) {
   MeshResult result;
@@ -182,6 +208,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   rep.dropped_labels = small_labels(chosen, census, options.min_label_voxels);
   io::LabelVolume meshed = rep.dropped_labels.empty() ? chosen : merge_labels(chosen, rep.dropped_labels);
   check_label_limit(meshed, merge_labels(census, rep.dropped_labels));  // in a moment, not after the fields
+  const LabelCensus meshed_census = label_census(meshed);  // what each label's volume should be
   if (options.well_composed) rep.well_composed = make_well_composed(meshed);
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -455,8 +482,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   rep.interface_flips = flip_interface_edges(I, options.flips).flips;
   if (rep.interface_flips > 0)
     rep.smoothing_moves += smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
+  rep.label_volumes = match_label_volumes(I, kind, label_volume_targets(meshed_census, labels, grid),
+                                          bounded_labels(adj, hull, material, meshed_census, labels,
+                                                         options.label_volumes.min_voxels),
+                                          grid.min_spacing(), options.label_volumes);
+  if (rep.label_volumes.worst_material >= 0) rep.label_volumes.worst_label = labels[size_t(rep.label_volumes.worst_material)];
   T.points = I.vertices;  // the volume mesh's region points come from these tets
-  stage_done(count(rep.smoothing_moves) + " vertex moves, " + count(rep.interface_flips) + " edge flips");
+  {
+    char d[200];
+    std::snprintf(d, sizeof d, "%s vertex moves, %s edge flips; %zu labels moved to their voxel volume, worst %.1f%% off",
+                  count(rep.smoothing_moves).c_str(), count(rep.interface_flips).c_str(), rep.label_volumes.labels_moved,
+                  100 * rep.label_volumes.worst_after);
+    stage_done(d);
+  }
 
   begin("quality");
   interface_quality(I, kind, labels, rep);

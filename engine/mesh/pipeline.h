@@ -38,6 +38,7 @@
 #include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
 #include "mesh/interface_flips.h"
+#include "mesh/label_volumes.h"
 #include "mesh/tetgen.h"
 #include "particles/population.h"
 
@@ -53,6 +54,7 @@ struct MeshOptions {
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
   FlipOptions flips;           // between two smoothings, where flips were made (interface_flips.h; passes 0: off)
+  LabelVolumeOptions label_volumes;  // labels grown or shrunk to their voxel volume after the smoothing (label_volumes.h)
   int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
                                // are left (refine.h); each adds samples only where there is room
   // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.
@@ -131,6 +133,7 @@ struct MeshReport {
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
   size_t interface_flips = 0;  // edges flipped inside one interface (interface_flips.h)
+  LabelVolumeReport label_volumes;  // MeshOptions::label_volumes
   TriangleStats surface;  // all interface triangles
   TriangleStats junction_triangles, other_triangles;  // with a triple-curve or quadruple-point vertex; without
   std::vector<InterfaceReport> interfaces;

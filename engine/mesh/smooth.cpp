@@ -37,11 +37,9 @@ bool equilateral_apex(const glm::dvec3& v, const glm::dvec3& a, const glm::dvec3
   return true;
 }
 
-// Moves checked one vertex at a time cannot see the rest of the mesh: where a layer is thinner than the triangles
-// are wide (a one-voxel shell), a vertex pulled towards its neighbours' centroid can push its triangles through
-// the other side's. Undoes, back to `start` (crossing-free positions), every moved vertex of two
-// crossing triangles, then every moved vertex of a triangle that the undoing flipped against its start, until
-// neither is left. Returns how many moves were undone.
+
+}  // namespace
+
 size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<std::array<uint32_t, 3>>& T,
                       std::vector<glm::dvec3>& V) {
   size_t undone = 0;
@@ -87,8 +85,6 @@ size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<st
     std::fill(touched.begin(), touched.end(), uint8_t(0));
   }
 }
-
-}  // namespace
 
 bool onto_feature(const fields::IndicatorFields& fields, const fields::ClosestPointEmbedding& E, uint32_t feature,
                   const glm::dvec3& near, const glm::dvec3& start, glm::dvec3& on) {

@@ -48,6 +48,14 @@ SmoothReport smooth_interfaces(const fields::IndicatorFields& fields, const fiel
                                const std::vector<uint32_t>& vertex_feature, InterfaceMesh& mesh,
                                const SmoothOptions& options = {});
 
+// Moves checked one vertex at a time cannot see the rest of the mesh: where a layer is thinner than the triangles
+// are wide (a one-voxel shell), a vertex pulled towards its neighbours' centroid can push its triangles through
+// the other side's. Undoes, back to `start` (crossing-free positions), every moved vertex of two
+// crossing triangles, then every moved vertex of a triangle that the undoing flipped against its start, until
+// neither is left. Returns how many moves were undone.
+size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<std::array<uint32_t, 3>>& T,
+                      std::vector<glm::dvec3>& V);
+
 // Sliver removal in a volume mesh by moving its free vertices: TetGen refines the materials to the radius-edge bound
 // only (QualityOptions::dihedral_in_tetgen), which leaves about 1.6% of the tets under 12 degrees, and with the
 // interface triangles kept (no Steiner points on them) only the inner vertices can move.

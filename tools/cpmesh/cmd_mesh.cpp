@@ -131,6 +131,12 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "where the quad across it is flat within 15 degrees and the worse triangle gains radius ratio 0.02")
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
+  sub->add_option("--label-volume-tolerance", m.label_volumes.tolerance,
+                  "After the smoothing, a label (of over 64 voxels, closed) whose interfaces enclose more than this share "
+                  "more or less than its voxels grows or shrinks along its normals until they do, by at most a quarter "
+                  "voxel (0: off)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   sub->add_flag("--only-surfaces", m.only_surfaces, "Interface meshes only, no tet mesh");
   sub->add_option("--max-particles", m.max_particles,
                   "Stop after seeding, with an error, if it made more particles than this (0: no limit); thin layers "
@@ -238,6 +244,12 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["crowded_particles"] = rep.crowded_particles;
             j["smoothing_moves"] = rep.smoothing_moves;
             j["interface_flips"] = rep.interface_flips;
+            j["label_volumes"] = {{"tolerance", o->mesh.label_volumes.tolerance},
+                                  {"labels_moved", rep.label_volumes.labels_moved},
+                                  {"moves_undone", rep.label_volumes.moves_undone},
+                                  {"worst_error_before", rep.label_volumes.worst_before},
+                                  {"worst_error_after", rep.label_volumes.worst_after},
+                                  {"worst_label", rep.label_volumes.worst_label}};
             j["repair"] = {{"wrong_faces_before", rep.wrong_faces_before_repair}, {"relabelled_tets", rep.relabelled_tets},
                            {"wrong_faces_after", rep.wrong_faces},
                            {"refinement_points", rep.refinement_points}, {"refinement_rounds", rep.refinement_rounds}};
@@ -328,6 +340,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         "closed; %zu crossing triangle pairs\n",
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
                         rep.interfaces.size(), rep.materials_closed, rep.materials.size(), rep.crossing_triangles);
+            std::printf("  label volumes (interfaces): worst %.2f%% off (label %d), %.2f%% before %zu labels moved "
+                        "to their voxel volume; %zu moves undone\n",
+                        100 * rep.label_volumes.worst_after, rep.label_volumes.worst_label,
+                        100 * rep.label_volumes.worst_before, rep.label_volumes.labels_moved,
+                        rep.label_volumes.moves_undone);
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty()) {
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
