@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numbers>
+#include <span>
 
 #include "fields/closest_point_embedding.h"
 #include "mesh/quality.h"
@@ -18,20 +21,28 @@ uint64_t edge_hash(uint32_t a, uint32_t b) {  // splitmix64 of the sorted pair
   return x ^ (x >> 31);
 }
 
-// Per vertex that may move: its unit normal, pointing from its interface's pair[0] into pair[1], and that pair;
-// vertices of junctions, of two interfaces or with no normal get pair {-1, -1}.
+// Per vertex that may move: its unit normal, pointing from its interface's pair[0] into pair[1], that pair, and how
+// far it may go (a quarter of its shortest edge: where a thin part pinches, its tiny triangles would turn over or
+// into slivers); vertices of junctions, of two interfaces or with no normal get pair {-1, -1}.
 struct Movable {
   std::vector<glm::dvec3> normal;
   std::vector<std::array<int, 2>> pair;
+  std::vector<double> reach;
 };
 
 Movable movable_vertices(const InterfaceMesh& mesh, const std::vector<uint8_t>& kind) {
   const size_t n = mesh.vertices.size();
-  Movable out{std::vector<glm::dvec3>(n, glm::dvec3(0.0)), std::vector<std::array<int, 2>>(n, {-2, -2})};
+  Movable out{std::vector<glm::dvec3>(n, glm::dvec3(0.0)), std::vector<std::array<int, 2>>(n, {-2, -2}),
+              std::vector<double>(n, std::numeric_limits<double>::infinity())};
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const glm::dvec3 area = triangle_normal(mesh.vertices, mesh.triangles[t]);
+    const auto& tri = mesh.triangles[t];
+    const glm::dvec3 area = triangle_normal(mesh.vertices, tri);
     const std::array<int, 2> pr = {int(mesh.pair[t][0]), int(mesh.pair[t][1])};
-    for (uint32_t v : mesh.triangles[t]) {
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t v = tri[size_t(c)];
+      const double shortest = std::min(glm::length(mesh.vertices[tri[size_t((c + 1) % 3)]] - mesh.vertices[v]),
+                                       glm::length(mesh.vertices[tri[size_t((c + 2) % 3)]] - mesh.vertices[v]));
+      out.reach[v] = std::min(out.reach[v], 0.25 * shortest);
       out.normal[v] += area;
       if (out.pair[v][0] == -2) out.pair[v] = pr;
       else if (out.pair[v] != pr) out.pair[v] = {-1, -1};
@@ -92,9 +103,32 @@ std::vector<uint8_t> closed_materials(const InterfaceMesh& mesh, size_t material
   return closed;
 }
 
+namespace {
+
+// Whether vertex v may go to p: every tet around it keeps its orientation, and keeps its smallest dihedral angle at
+// the bound if it had it, or at its own if it had less.
+bool tets_allow(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 4>>& tets,
+                std::span<const uint32_t> around, uint32_t v, const glm::dvec3& p, double bound_rad) {
+  std::vector<glm::dvec3> moved(4);
+  for (uint32_t t : around) {
+    const auto& tet = tets[t];
+    for (int c = 0; c < 4; ++c) moved[size_t(c)] = tet[size_t(c)] == v ? p : points[tet[size_t(c)]];
+    const auto& q = moved;
+    const double before = glm::dot(points[tet[1]] - points[tet[0]],
+                                   glm::cross(points[tet[2]] - points[tet[0]], points[tet[3]] - points[tet[0]]));
+    const double after = glm::dot(q[1] - q[0], glm::cross(q[2] - q[0], q[3] - q[0]));
+    if (!(after * before > 0)) return false;
+    const double was = min_dihedral(points, tet), now = min_dihedral(q[0], q[1], q[2], q[3]);
+    if (now < std::min(was, bound_rad)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 LabelVolumeReport match_label_volumes(InterfaceMesh& mesh, const std::vector<uint8_t>& kind,
                                       const std::vector<double>& target, const std::vector<uint8_t>& measured_in,
-                                      double voxel_size, const LabelVolumeOptions& options) {
+                                      double voxel_size, const LabelVolumeOptions& options, const TetsAround& volume_mesh) {
   LabelVolumeReport report;
   const size_t materials = target.size();
   std::vector<uint8_t> measured = measured_in;
@@ -119,18 +153,34 @@ LabelVolumeReport match_label_volumes(InterfaceMesh& mesh, const std::vector<uin
   const Movable movable = movable_vertices(mesh, kind);
   const std::vector<glm::dvec3> start = mesh.vertices;
   const double limit = options.max_move * voxel_size;
+  const double bound = volume_mesh.min_dihedral_deg * std::numbers::pi / 180;
   std::vector<double> grow(materials, 0.0);  // outward distance per material
   for (int round = 0; round < options.rounds; ++round) {
     for (size_t m = 0; m < materials; ++m)
       if (moving[m] && area[m] > 0) grow[m] = std::clamp(grow[m] + (target[m] - volume[m]) / area[m], -limit, limit);
     for (size_t v = 0; v < start.size(); ++v) {
       const auto [a, b] = movable.pair[v];
-      if (a >= 0) mesh.vertices[v] = start[v] + (grow[size_t(a)] - grow[size_t(b)]) * movable.normal[v];
+      if (a < 0) continue;
+      const glm::dvec3 p =
+          start[v] + std::clamp(grow[size_t(a)] - grow[size_t(b)], -movable.reach[v], movable.reach[v]) * movable.normal[v];
+      if (p == mesh.vertices[v]) continue;
+      if (volume_mesh.points) {
+        auto& points = *volume_mesh.points;
+        if (!tets_allow(points, *volume_mesh.tets, (*volume_mesh.around)[uint32_t(v)], uint32_t(v), p, bound)) {
+          ++report.moves_refused;
+          continue;
+        }
+        points[v] = p;
+      }
+      mesh.vertices[v] = p;
     }
     volume = enclosed_volumes(mesh, materials);
   }
   report.moves_undone = undo_crossings(start, mesh.triangles, mesh.vertices);
-  if (report.moves_undone > 0) volume = enclosed_volumes(mesh, materials);
+  if (report.moves_undone > 0) {
+    volume = enclosed_volumes(mesh, materials);
+    if (volume_mesh.points) std::copy(mesh.vertices.begin(), mesh.vertices.end(), volume_mesh.points->begin());
+  }
   std::tie(report.worst_after, report.worst_material) = worst_error(volume, target, measured);
   return report;
 }

@@ -482,19 +482,19 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   rep.interface_flips = flip_interface_edges(I, options.flips).flips;
   if (rep.interface_flips > 0)
     rep.smoothing_moves += smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
-  rep.label_volumes = match_label_volumes(I, kind, label_volume_targets(meshed_census, labels, grid),
-                                          bounded_labels(adj, hull, material, meshed_census, labels,
-                                                         options.label_volumes.min_voxels),
-                                          grid.min_spacing(), options.label_volumes);
-  if (rep.label_volumes.worst_material >= 0) rep.label_volumes.worst_label = labels[size_t(rep.label_volumes.worst_material)];
   T.points = I.vertices;  // the volume mesh's region points come from these tets
-  {
-    char d[200];
-    std::snprintf(d, sizeof d, "%s vertex moves, %s edge flips; %zu labels moved to their voxel volume, worst %.1f%% off",
-                  count(rep.smoothing_moves).c_str(), count(rep.interface_flips).c_str(), rep.label_volumes.labels_moved,
-                  100 * rep.label_volumes.worst_after);
-    stage_done(d);
-  }
+  // Label volumes (label_volumes.h): on the final vertices, so after the volume mesh's sliver moves where there is one.
+  const std::vector<double> volume_targets = label_volume_targets(meshed_census, labels, grid);
+  const std::vector<uint8_t> volume_measured =
+      bounded_labels(adj, hull, material, meshed_census, labels, options.label_volumes.min_voxels);
+  auto match_volumes = [&](const TetsAround& tets) {
+    rep.label_volumes = match_label_volumes(I, kind, volume_targets, volume_measured, grid.min_spacing(),
+                                            options.label_volumes, tets);
+    if (rep.label_volumes.worst_material >= 0)
+      rep.label_volumes.worst_label = labels[size_t(rep.label_volumes.worst_material)];
+  };
+  if (options.only_surfaces) match_volumes({});
+  stage_done(count(rep.smoothing_moves) + " vertex moves, " + count(rep.interface_flips) + " edge flips");
 
   begin("quality");
   interface_quality(I, kind, labels, rep);
@@ -530,7 +530,11 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       const auto moves_start = clock::now();
       rep.surface_slivers = mend_surface_slivers(F, vertex_feature, kind, options.volume, grid.min_spacing(), I,
                                                  meshes.tets);
-      if (rep.surface_slivers.moves > 0) {  // the interfaces moved with the tets: their figures and output too
+      {
+        const ElementsAround<4> around(meshes.tets.points.size(), meshes.tets.tets);
+        match_volumes({&meshes.tets.points, &meshes.tets.tets, &around, options.volume.min_dihedral});
+      }
+      if (rep.surface_slivers.moves > 0 || rep.label_volumes.labels_moved > 0) {  // the interfaces moved with the tets
         interface_quality(I, kind, labels, rep);
         result.surfaces.vertices = result.particles.vertices = physical_vertices(grid, I.vertices);
       }

@@ -46,7 +46,7 @@ TEST_CASE("label volumes: a ball short of its target grows to it, evenly, and th
   for (const auto& p : m.vertices) CHECK(glm::length(p) - kRadius == doctest::Approx(grown).epsilon(1e-3));
 }
 
-TEST_CASE("label volumes: within the tolerance, or not measured, nothing moves; the move stops at the limit") {
+TEST_CASE("label volumes: within the tolerance, or not measured, nothing moves; the move stops at max_move") {
   for (const auto& [share, measured] : {std::pair{1.005, uint8_t(1)}, std::pair{1.2, uint8_t(0)}}) {
     mesh::InterfaceMesh m = ball();
     const auto start = m.vertices;
@@ -55,14 +55,33 @@ TEST_CASE("label volumes: within the tolerance, or not measured, nothing moves; 
     CHECK(r.labels_moved == 0);
     CHECK(m.vertices == start);
   }
+  // A quarter of a voxel of 0.4 is 0.1, less than any vertex's quarter of its shortest edge (0.16 at least).
   mesh::InterfaceMesh m = ball();
-  mesh::LabelVolumeOptions options;
-  options.max_move = 0.25;
   const auto r = mesh::match_label_volumes(m, interface_kinds(m.vertices.size()),
-                                           {0.0, 2.0 * mesh::enclosed_volumes(m, 2)[1]}, {0, 1}, 2.0, options);
+                                           {0.0, 2.0 * mesh::enclosed_volumes(m, 2)[1]}, {0, 1}, 0.4);
   CHECK(r.labels_moved == 1);
-  CHECK(r.worst_after == doctest::Approx(1 - std::pow(1.1, 3) / 2).epsilon(1e-2));  // (radius 5.5 against 5)
-  for (const auto& p : m.vertices) CHECK(glm::length(p) == doctest::Approx(kRadius + 0.5).epsilon(1e-4));
+  CHECK(r.worst_after == doctest::Approx(1 - std::pow(1.02, 3) / 2).epsilon(1e-2));  // (radius 5.1 against 5)
+  for (const auto& p : m.vertices) CHECK(glm::length(p) == doctest::Approx(kRadius + 0.1).epsilon(1e-4));
+}
+
+TEST_CASE("label volumes: no vertex moves more than a quarter of its shortest edge") {
+  mesh::InterfaceMesh m = ball();
+  const auto start = m.vertices;
+  std::vector<double> shortest(start.size(), 1e9);
+  for (const auto& t : m.triangles)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = t[size_t(c)], b = t[size_t((c + 1) % 3)];
+      const double length = glm::length(start[a] - start[b]);
+      shortest[a] = std::min(shortest[a], length);
+      shortest[b] = std::min(shortest[b], length);
+    }
+  mesh::match_label_volumes(m, interface_kinds(m.vertices.size()), {0.0, 2.0 * mesh::enclosed_volumes(m, 2)[1]},
+                            {0, 1}, 10.0);
+  for (size_t v = 0; v < start.size(); ++v) {
+    const double moved = glm::length(m.vertices[v] - start[v]);
+    CHECK(moved > 0.5 * 0.25 * shortest[v]);
+    CHECK(moved <= 0.25 * shortest[v] * (1 + 1e-9));
+  }
 }
 
 TEST_CASE("label volumes: junction vertices stay, the others make up for them") {

@@ -247,6 +247,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["label_volumes"] = {{"tolerance", o->mesh.label_volumes.tolerance},
                                   {"labels_moved", rep.label_volumes.labels_moved},
                                   {"moves_undone", rep.label_volumes.moves_undone},
+                                  {"moves_refused", rep.label_volumes.moves_refused},
                                   {"worst_error_before", rep.label_volumes.worst_before},
                                   {"worst_error_after", rep.label_volumes.worst_after},
                                   {"worst_label", rep.label_volumes.worst_label}};
@@ -341,10 +342,10 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                         rep.surface.mean_radius_ratio, rep.surface.min_radius_ratio, rep.interfaces_manifold,
                         rep.interfaces.size(), rep.materials_closed, rep.materials.size(), rep.crossing_triangles);
             std::printf("  label volumes (interfaces): worst %.2f%% off (label %d), %.2f%% before %zu labels moved "
-                        "to their voxel volume; %zu moves undone\n",
+                        "to their voxel volume; %zu moves refused by the tets, %zu undone\n",
                         100 * rep.label_volumes.worst_after, rep.label_volumes.worst_label,
                         100 * rep.label_volumes.worst_before, rep.label_volumes.labels_moved,
-                        rep.label_volumes.moves_undone);
+                        rep.label_volumes.moves_refused, rep.label_volumes.moves_undone);
             if (!o->mesh.only_surfaces) {
               if (rep.volume_error.empty()) {
                 std::printf("  volume mesh: %zu tets, dihedral angles %.1f..%.1f deg (%.1f from TetGen, %zu sliver "
