@@ -1,6 +1,7 @@
 #include "mesh/label_volumes.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -109,11 +110,10 @@ namespace {
 // the bound if it had it, or at its own if it had less.
 bool tets_allow(const std::vector<glm::dvec3>& points, const std::vector<std::array<uint32_t, 4>>& tets,
                 std::span<const uint32_t> around, uint32_t v, const glm::dvec3& p, double bound_rad) {
-  std::vector<glm::dvec3> moved(4);
   for (uint32_t t : around) {
     const auto& tet = tets[t];
-    for (int c = 0; c < 4; ++c) moved[size_t(c)] = tet[size_t(c)] == v ? p : points[tet[size_t(c)]];
-    const auto& q = moved;
+    std::array<glm::dvec3, 4> q;
+    for (size_t c = 0; c < 4; ++c) q[c] = tet[c] == v ? p : points[tet[c]];
     const double before = glm::dot(points[tet[1]] - points[tet[0]],
                                    glm::cross(points[tet[2]] - points[tet[0]], points[tet[3]] - points[tet[0]]));
     const double after = glm::dot(q[1] - q[0], glm::cross(q[2] - q[0], q[3] - q[0]));
@@ -122,6 +122,41 @@ bool tets_allow(const std::vector<glm::dvec3>& points, const std::vector<std::ar
     if (now < std::min(was, bound_rad)) return false;
   }
   return true;
+}
+
+std::vector<double> interface_areas(const InterfaceMesh& mesh, size_t materials) {
+  std::vector<double> area(materials, 0.0);
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const double a = 0.5 * glm::length(triangle_normal(mesh.vertices, mesh.triangles[t]));
+    area[mesh.pair[t][0]] += a;
+    area[mesh.pair[t][1]] += a;
+  }
+  return area;
+}
+
+// Every movable vertex to `start` plus the difference of its sides' growth along its normal (within its reach),
+// where the volume mesh's tets allow it. Returns the moves refused.
+size_t move_vertices(const std::vector<double>& grow, const Movable& movable, const std::vector<glm::dvec3>& start,
+                     InterfaceMesh& mesh, const TetsAround& volume_mesh) {
+  const double bound = volume_mesh.min_dihedral_deg * std::numbers::pi / 180;
+  size_t refused = 0;
+  for (size_t v = 0; v < start.size(); ++v) {
+    const auto [a, b] = movable.pair[v];
+    if (a < 0) continue;
+    const double along = std::clamp(grow[size_t(a)] - grow[size_t(b)], -movable.reach[v], movable.reach[v]);
+    const glm::dvec3 p = start[v] + along * movable.normal[v];
+    if (p == mesh.vertices[v]) continue;
+    if (volume_mesh.points) {
+      auto& points = *volume_mesh.points;
+      if (!tets_allow(points, *volume_mesh.tets, (*volume_mesh.around)[uint32_t(v)], uint32_t(v), p, bound)) {
+        ++refused;
+        continue;
+      }
+      points[v] = p;
+    }
+    mesh.vertices[v] = p;
+  }
+  return refused;
 }
 
 }  // namespace
@@ -139,41 +174,19 @@ LabelVolumeReport match_label_volumes(InterfaceMesh& mesh, const std::vector<uin
   report.worst_after = report.worst_before;
   if (options.tolerance <= 0 || options.rounds <= 0) return report;
 
-  // Labels to move, and the area of each (its growth per unit distance).
   std::vector<uint8_t> moving(materials, 0);
   for (size_t m = 0; m < materials; ++m)
     if (measured[m] && std::fabs(volume[m] - target[m]) > options.tolerance * target[m]) moving[m] = 1, ++report.labels_moved;
   if (report.labels_moved == 0) return report;
-  std::vector<double> area(materials, 0.0);
-  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const double a = 0.5 * glm::length(triangle_normal(mesh.vertices, mesh.triangles[t]));
-    area[mesh.pair[t][0]] += a;
-    area[mesh.pair[t][1]] += a;
-  }
+  const std::vector<double> area = interface_areas(mesh, materials);  // a label's growth in volume per unit distance
   const Movable movable = movable_vertices(mesh, kind);
   const std::vector<glm::dvec3> start = mesh.vertices;
   const double limit = options.max_move * voxel_size;
-  const double bound = volume_mesh.min_dihedral_deg * std::numbers::pi / 180;
   std::vector<double> grow(materials, 0.0);  // outward distance per material
   for (int round = 0; round < options.rounds; ++round) {
     for (size_t m = 0; m < materials; ++m)
       if (moving[m] && area[m] > 0) grow[m] = std::clamp(grow[m] + (target[m] - volume[m]) / area[m], -limit, limit);
-    for (size_t v = 0; v < start.size(); ++v) {
-      const auto [a, b] = movable.pair[v];
-      if (a < 0) continue;
-      const glm::dvec3 p =
-          start[v] + std::clamp(grow[size_t(a)] - grow[size_t(b)], -movable.reach[v], movable.reach[v]) * movable.normal[v];
-      if (p == mesh.vertices[v]) continue;
-      if (volume_mesh.points) {
-        auto& points = *volume_mesh.points;
-        if (!tets_allow(points, *volume_mesh.tets, (*volume_mesh.around)[uint32_t(v)], uint32_t(v), p, bound)) {
-          ++report.moves_refused;
-          continue;
-        }
-        points[v] = p;
-      }
-      mesh.vertices[v] = p;
-    }
+    report.moves_refused += move_vertices(grow, movable, start, mesh, volume_mesh);
     volume = enclosed_volumes(mesh, materials);
   }
   report.moves_undone = undo_crossings(start, mesh.triangles, mesh.vertices);
