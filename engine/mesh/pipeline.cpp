@@ -542,7 +542,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       const auto output_start = clock::now();
       rep.tet_improvement = meshes.improvement;
       rep.sliver_split = meshes.sliver_split;
-      if (rep.surface_slivers.moves > 0)
+      if (rep.surface_slivers.moves > 0 || rep.label_volumes.labels_moved > 0)
         rep.sliver_split.failed = count_below_dihedral(meshes.tets.points, meshes.tets.tets, options.volume.min_dihedral);
       rep.volume_one_run_because = meshes.one_run_because;
       rep.volume_runs = meshes.runs;
