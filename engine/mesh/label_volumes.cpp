@@ -114,10 +114,7 @@ bool tets_allow(const std::vector<glm::dvec3>& points, const std::vector<std::ar
     const auto& tet = tets[t];
     std::array<glm::dvec3, 4> q;
     for (size_t c = 0; c < 4; ++c) q[c] = tet[c] == v ? p : points[tet[c]];
-    const double before = glm::dot(points[tet[1]] - points[tet[0]],
-                                   glm::cross(points[tet[2]] - points[tet[0]], points[tet[3]] - points[tet[0]]));
-    const double after = glm::dot(q[1] - q[0], glm::cross(q[2] - q[0], q[3] - q[0]));
-    if (!(after * before > 0)) return false;
+    if (!(signed_volume6(q[0], q[1], q[2], q[3]) * signed_volume6(points, tet) > 0)) return false;
     const double was = min_dihedral(points, tet), now = min_dihedral(q[0], q[1], q[2], q[3]);
     if (now < std::min(was, bound_rad)) return false;
   }

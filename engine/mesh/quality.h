@@ -49,9 +49,16 @@ double radius_edge_ratio(const glm::dvec3& a, const glm::dvec3& b, const glm::dv
 // >= 0, squares in the normal range).
 bool radius_edge_above(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d,
                        double limit);
+// Six times the signed volume of tet abcd: positive where d lies on the side of abc that (b - a) x (c - a) points to.
+inline double signed_volume6(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+  return glm::dot(b - a, glm::cross(c - a, d - a));
+}
+inline double signed_volume6(const std::vector<glm::dvec3>& P, const std::array<uint32_t, 4>& t) {
+  return signed_volume6(P[t[0]], P[t[1]], P[t[2]], P[t[3]]);
+}
 // The volume of tet abcd (unsigned).
 inline double tet_volume(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
-  return std::fabs(glm::dot(b - a, glm::cross(c - a, d - a))) / 6.0;
+  return std::fabs(signed_volume6(a, b, c, d)) / 6.0;
 }
 
 // Triangle t's normal over points P, twice its area long, by its vertex order (b - a) x (c - a).

@@ -291,10 +291,10 @@ SliverRemeshReport remesh_slivers(std::vector<glm::dvec3>& P, std::vector<std::a
       continue;
     // The same handedness as the tets they replace.
     const auto& k0 = tets[cavities[c].tets.front()];
-    const bool positive = glm::dot(P[k0[1]] - P[k0[0]], glm::cross(P[k0[2]] - P[k0[0]], P[k0[3]] - P[k0[0]])) > 0;
+    const bool positive = signed_volume6(P, k0) > 0;
     for (uint32_t t : cavities[c].tets) dead[t] = 1;
     for (auto q : made[c]) {
-      const bool p = glm::dot(all[q[1]] - all[q[0]], glm::cross(all[q[2]] - all[q[0]], all[q[3]] - all[q[0]])) > 0;
+      const bool p = signed_volume6(all, q) > 0;
       if (p != positive) std::swap(q[1], q[2]);
       tets.push_back(q);
       region.push_back(cavities[c].region);

@@ -37,7 +37,6 @@ bool equilateral_apex(const glm::dvec3& v, const glm::dvec3& a, const glm::dvec3
   return true;
 }
 
-
 }  // namespace
 
 size_t undo_crossings(const std::vector<glm::dvec3>& start, const std::vector<std::array<uint32_t, 3>>& T,
@@ -278,9 +277,6 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
                               size_t fixed, double target_deg, double max_radius_edge, int passes) {
   TetImproveReport report;
   const double target = target_deg * M_PI / 180;
-  auto signed_volume = [&](const std::array<uint32_t, 4>& t) {
-    return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
-  };
   // Every tet's smallest dihedral angle as its cosine (min_dihedral_cosine: no arc cosine; the angle never shrinks as
   // it grows), kept current as vertices move (one parallel pass, then only the tets of a moved vertex).
   std::vector<double> cosine(tets.size());
@@ -304,7 +300,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
   const ElementsAround<4> around(P.size(), tets);
   std::vector<int8_t> sign(tets.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tets.size()), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t t = r.begin(); t != r.end(); ++t) sign[t] = signed_volume(tets[t]) > 0 ? 1 : -1;
+    for (size_t t = r.begin(); t != r.end(); ++t) sign[t] = signed_volume6(P, tets[t]) > 0 ? 1 : -1;
   });
   report.min_dihedral_before = report.min_dihedral_after = worst_angle() * 180 / M_PI;
   // The smallest dihedral angle of v's tets (`mine`: all of them, in any order) with v at its current position, as
@@ -318,7 +314,7 @@ TetImproveReport improve_tets(std::vector<glm::dvec3>& P, const std::vector<std:
     size_t worst = 0;
     for (size_t i = 0; i < mine.size(); ++i) {
       const auto& k = tets[mine[i]];
-      if (signed_volume(k) * sign[mine[i]] <= 0) return -2.0;
+      if (signed_volume6(P, k) * sign[mine[i]] <= 0) return -2.0;
       const double c = min_dihedral_cosine_unless_above(P[k[0]], P[k[1]], P[k[2]], P[k[3]], q);
       if (c < q) q = c, worst = i;
       if (q <= floor) {

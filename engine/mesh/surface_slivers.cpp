@@ -15,10 +15,6 @@ using Triangle = std::array<uint32_t, 3>;
 
 constexpr uint8_t kInterface = 1, kPoint = 3;  // `movable`'s kinds (2: a triple-curve vertex)
 
-double signed_volume(const std::vector<glm::dvec3>& P, const Tet& t) {
-  return glm::dot(P[t[1]] - P[t[0]], glm::cross(P[t[2]] - P[t[0]], P[t[3]] - P[t[0]]));
-}
-
 enum class Star { closed, open, broken };
 
 // Closed: every face through v is shared by exactly two of v's tets, so v's tets tile a ball around it. Open: v is on
@@ -106,7 +102,7 @@ class Mover {
     limit_ = 1.5 * max_radius_edge_;
     for (uint32_t t : tets_around_[v]) {
       const Tet& k = tets_[t];
-      sign_.push_back(signed_volume(P_, k) > 0 ? 1 : -1);
+      sign_.push_back(signed_volume6(P_, k) > 0 ? 1 : -1);
       limit_ = std::max(limit_, radius_edge_ratio(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]]));
     }
     normals_.clear();
@@ -180,7 +176,7 @@ class Mover {
     s.worst = M_PI;
     for (size_t i = 0; i < mine.size(); ++i) {
       const Tet& k = tets_[mine[i]];
-      if (signed_volume(P_, k) * sign_[i] <= 0) return s;
+      if (signed_volume6(P_, k) * sign_[i] <= 0) return s;
       if (radius_edge_above(P_[k[0]], P_[k[1]], P_[k[2]], P_[k[3]], limit_)) return s;
       const double a = min_dihedral(P_, k);
       s.below += a < target_;
@@ -239,7 +235,7 @@ size_t undo_crossings(std::vector<glm::dvec3>& P, const std::vector<glm::dvec3>&
     const uint32_t v = queue.back();
     queue.pop_back();
     for (uint32_t k : tets_around[v])
-      if (signed_volume(P, tets[k]) * signed_volume(start, tets[k]) <= 0)
+      if (signed_volume6(P, tets[k]) * signed_volume6(start, tets[k]) <= 0)
         for (uint32_t u : tets[k])
           if (undo(u)) queue.push_back(u);
   }
