@@ -70,13 +70,13 @@ InterfaceMesh extract_interfaces(const Tets& tets, const Adjacency& adj, const s
 size_t promote_junction_vertices(InterfaceMesh& mesh, const std::vector<fields::MaterialList>& vertex_materials,
                                  std::vector<uint8_t>& kind);
 
-// One tet per connected set of same-material tets (through shared faces) that is enclosed by interfaces: the
-// one with the largest inscribed sphere (its centroid seeds the region in the volume mesh).
 // Hull face tc with its own tet's material beyond it: no interface closes that tet's region from the outside.
 inline bool opens_to_outside(const Adjacency& adj, const std::vector<uint16_t>& hull,
                              const std::vector<uint16_t>& material, uint32_t tc) {
   return adj.neighbour[tc] == Adjacency::kHull && material_across(adj, hull, material, tc) == material[tc / 4];
 }
+// One tet per connected set of same-material tets (through shared faces) that is enclosed by interfaces: the
+// one with the largest inscribed sphere (its centroid seeds the region in the volume mesh).
 std::vector<uint32_t> component_representatives(const Tets& tets, const Adjacency& adj, const std::vector<uint16_t>& hull,
                                                 const std::vector<uint16_t>& material);
 

@@ -54,7 +54,7 @@ struct MeshOptions {
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
   FlipOptions flips;           // between two smoothings, where flips were made (interface_flips.h; passes 0: off)
-  LabelVolumeOptions label_volumes;  // labels grown or shrunk to their voxel volume after the smoothing (label_volumes.h)
+  LabelVolumeOptions label_volumes;  // labels grown or shrunk to their voxel volume, last (label_volumes.h)
   int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
                                // are left (refine.h); each adds samples only where there is room
   // Labels with fewer voxels join the label they touch most (small_labels.h); report.json lists them. 0 or 1: all kept.

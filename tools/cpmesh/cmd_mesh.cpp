@@ -132,7 +132,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
   sub->add_option("--label-volume-tolerance", m.label_volumes.tolerance,
-                  "After the smoothing, a label (of over 64 voxels, closed) whose interfaces enclose more than this share "
+                  "Last, a label (of over 64 voxels, closed) whose interfaces enclose more than this share "
                   "more or less than its voxels grows or shrinks along its normals until they do, by at most a quarter "
                   "voxel (0: off)")
       ->check(CLI::Range(0.0, 1.0))
