@@ -122,15 +122,17 @@ SurfaceSliverReport mend_surface_slivers(const fields::FieldsResult& F, const st
   const FeatureProjection project = [&](uint32_t v, const glm::dvec3& near, glm::dvec3& on) {
     return onto_feature(F.fields, F.embedding, vertex_feature[v], near, V.points[v], on);
   };
-  const double offset = options.sliver_offset * voxel;
-  SurfaceSliverReport r = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, options.min_dihedral,
-                                                options.max_radius_edge, offset);
+  const SurfaceMoveOptions moves{.target_deg = options.min_dihedral,
+                                 .max_radius_edge = options.max_radius_edge,
+                                 .max_offset = options.sliver_offset * voxel,
+                                 .min_ratio = options.min_triangle_ratio};
+  SurfaceSliverReport r = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, moves);
   // The inner vertices around the moved ones may find better places now, and then the moved ones again.
-  for (int round = 0; round < 3 && r.moves > 0 && r.slivers_after > 0; ++round) {
+  for (int round = 0; round < 3 && r.moves > 0 && (r.slivers_after > 0 || r.flat_after > 0); ++round) {
     improve_tets(V.points, V.tets, I.vertices.size(), options.min_dihedral, options.max_radius_edge);
-    const SurfaceSliverReport again = move_surface_vertices(V.points, V.tets, I.triangles, movable, project,
-                                                            options.min_dihedral, options.max_radius_edge, offset);
+    const SurfaceSliverReport again = move_surface_vertices(V.points, V.tets, I.triangles, movable, project, moves);
     r.slivers_after = again.slivers_after;
+    r.flat_after = again.flat_after;
     if (again.moves == 0) break;
     r.moves += again.moves;
   }

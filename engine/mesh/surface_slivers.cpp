@@ -53,24 +53,29 @@ Star star_of(uint32_t v, std::span<const uint32_t> mine, std::span<const uint32_
   return star;
 }
 
-// How good vertex v's neighbourhood is at its current position: how many of its tets are under the bound, and the
-// smallest dihedral angle among them. `valid` is false where a tet turned over (against `sign`) or went over
-// `radius_edge`, or an interface triangle of v fell under `min_ratio` or turned more than 30 degrees from `normals`.
+// How good vertex v's neighbourhood is at its current position: how many of its tets are under the bound, the
+// smallest dihedral angle among them and the smallest radius ratio among its interface triangles. Fewer tets under
+// the bound come first, then (while any is left) a larger smallest angle, then a larger smallest ratio. `valid` is
+// false where a tet turned over (against `sign`) or went over `radius_edge`, or an interface triangle of v fell
+// under `min_ratio` or turned more than 30 degrees from `normals`.
 struct Score {
   bool valid = false;
   size_t below = 0;
-  double worst = 0;
+  double worst = 0, shape = 0;
   bool better_than(const Score& o) const {
-    return valid && (!o.valid || below < o.below || (below == o.below && worst > o.worst));
+    if (!valid) return false;
+    if (!o.valid || below != o.below) return !o.valid || below < o.below;
+    return below > 0 ? worst > o.worst : shape > o.shape;
   }
 };
 
 class Mover {
  public:
   Mover(std::vector<glm::dvec3>& P, const std::vector<Tet>& tets, const std::vector<Triangle>& triangles,
-        const FeatureProjection& project, double target, double max_radius_edge, double max_offset)
+        const FeatureProjection& project, double target, const SurfaceMoveOptions& options)
       : P_(P), tets_(tets), triangles_(triangles), project_(project), target_(target),
-        max_radius_edge_(max_radius_edge), max_offset_(max_offset), tets_around_(P.size(), tets),
+        max_radius_edge_(options.max_radius_edge), max_offset_(options.max_offset), min_shape_(options.min_ratio),
+        tets_around_(P.size(), tets),
         triangles_around_(P.size(), triangles), anchor_(P) {}
 
   double min_angle(uint32_t t) const { return min_dihedral(P_, tets_[t]); }
@@ -89,7 +94,7 @@ class Mover {
     best_ = score(v);
     best_at_ = start;
     if (kind != kPoint) search(v, kind, pass, 0);
-    if (best_.below > 0 && max_offset_ > 0) search(v, kind, pass, max_offset_);
+    if (wanting(best_) && max_offset_ > 0) search(v, kind, pass, max_offset_);
     P_[v] = best_at_;
     return best_at_ != start;
   }
@@ -132,7 +137,7 @@ class Mover {
     constexpr int kDraws = 12;
     uint64_t draw = offset > 0 ? kOffsetDraws : 0;
     for (double step : kSteps)
-      for (int d = 0; d < kDraws && best_.below > 0; ++d, ++draw) {  // until none of v's tets is under the bound
+      for (int d = 0; d < kDraws && wanting(best_); ++d, ++draw) {  // until v's tets and triangles are over their bounds
         glm::dvec3 on = anchor_[v];
         if (kind != kPoint && !step_on_feature(v, kind, offset > 0, step, random_direction(v, pass, draw), on))
           continue;
@@ -170,6 +175,9 @@ class Mover {
     return glm::length(d) > 0 ? glm::normalize(d) : d;
   }
 
+  // Whether a position still leaves a tet of v under the dihedral bound or a triangle of v under the ratio bound.
+  bool wanting(const Score& s) const { return s.below > 0 || s.shape < min_shape_; }
+
   Score score(uint32_t v) const {
     Score s;
     const auto mine = tets_around_[v];
@@ -183,9 +191,12 @@ class Mover {
       s.worst = std::min(s.worst, a);
     }
     const auto faces = triangles_around_[v];
+    s.shape = 1;
     for (size_t i = 0; i < faces.size(); ++i) {
       const Triangle& tri = triangles_[faces[i]];
-      if (radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]) < min_ratio_) return s;
+      const double ratio = radius_ratio(P_[tri[0]], P_[tri[1]], P_[tri[2]]);
+      if (ratio < min_ratio_) return s;
+      s.shape = std::min(s.shape, ratio);
       const glm::dvec3 n = triangle_normal(P_, tri);
       if (glm::dot(n, normals_[i]) <= std::cos(M_PI / 6) * glm::length(n)) return s;
     }
@@ -197,7 +208,7 @@ class Mover {
   const std::vector<Tet>& tets_;
   const std::vector<Triangle>& triangles_;
   const FeatureProjection& project_;
-  const double target_, max_radius_edge_, max_offset_;
+  const double target_, max_radius_edge_, max_offset_, min_shape_;
   const ElementsAround<4> tets_around_;
   const ElementsAround<3> triangles_around_;
   const std::vector<glm::dvec3> anchor_;  // the positions before the passes: where a kPoint vertex belongs
@@ -246,48 +257,62 @@ size_t undo_crossings(std::vector<glm::dvec3>& P, const std::vector<glm::dvec3>&
 
 SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points, const std::vector<Tet>& tets,
                                           const std::vector<Triangle>& triangles, const std::vector<uint8_t>& movable,
-                                          const FeatureProjection& project, double target_deg,
-                                          double max_radius_edge, double max_offset, int passes) {
+                                          const FeatureProjection& project, const SurfaceMoveOptions& options) {
   SurfaceSliverReport report;
-  const double target = target_deg * M_PI / 180;
+  const double target = options.target_deg * M_PI / 180;
   auto is_movable = [&](uint32_t v) { return v < movable.size() && movable[v]; };
-  auto with_movable = [&](const Tet& t) { return std::any_of(t.begin(), t.end(), is_movable); };
+  auto ratio = [&](const Triangle& t) { return radius_ratio(points[t[0]], points[t[1]], points[t[2]]); };
   auto slivers = [&] {
     std::vector<uint32_t> bad;
     for (uint32_t t = 0; t < tets.size(); ++t)
-      if (with_movable(tets[t]) && min_dihedral(points, tets[t]) < target) bad.push_back(t);
+      if (std::any_of(tets[t].begin(), tets[t].end(), is_movable) && min_dihedral(points, tets[t]) < target)
+        bad.push_back(t);
     return bad;
   };
-  std::vector<uint32_t> bad = slivers();
+  auto flats = [&] {
+    std::vector<uint32_t> flat;
+    for (uint32_t f = 0; f < triangles.size(); ++f)
+      if (std::any_of(triangles[f].begin(), triangles[f].end(), is_movable) && ratio(triangles[f]) < options.min_ratio)
+        flat.push_back(f);
+    return flat;
+  };
+  std::vector<uint32_t> bad = slivers(), flat = flats();
   report.slivers_before = report.slivers_after = bad.size();
-  if (bad.empty()) return report;
+  report.flat_before = report.flat_after = flat.size();
+  if (bad.empty() && flat.empty()) return report;
   const std::vector<glm::dvec3> start = points;
   std::vector<uint8_t> moved_open(points.size(), 0);
-  Mover mover(points, tets, triangles, project, target, max_radius_edge, max_offset);
+  Mover mover(points, tets, triangles, project, target, options);
   // A vertex is tried again only once something in its star has moved since it last failed.
   std::vector<uint8_t> stale(points.size(), 0);
-  for (int pass = 0; pass < passes && !bad.empty(); ++pass) {
+  for (int pass = 0; pass < options.passes && !(bad.empty() && flat.empty()); ++pass) {
     size_t moved = 0;
-    for (uint32_t t : bad)
-      for (uint32_t v : tets[t]) {
-        if (!is_movable(v) || stale[v] || mover.min_angle(t) >= target) continue;
-        bool open = false;
-        if (!mover.move(v, movable[v], pass, open)) {
-          stale[v] = 1;
-          continue;
-        }
-        moved_open[v] |= uint8_t(open);
-        ++moved;
-        for (uint32_t k : mover.tets_around(v))
-          for (uint32_t u : tets[k]) stale[u] = 0;
+    auto try_move = [&](uint32_t v) {
+      bool open = false;
+      if (!mover.move(v, movable[v], pass, open)) {
+        stale[v] = 1;
+        return;
       }
+      moved_open[v] |= uint8_t(open);
+      ++moved;
+      for (uint32_t k : mover.tets_around(v))
+        for (uint32_t u : tets[k]) stale[u] = 0;
+    };
+    for (uint32_t t : bad)
+      for (uint32_t v : tets[t])
+        if (is_movable(v) && !stale[v] && mover.min_angle(t) < target) try_move(v);
+    for (uint32_t f : flat)
+      for (uint32_t v : triangles[f])
+        if (is_movable(v) && !stale[v] && ratio(triangles[f]) < options.min_ratio) try_move(v);
     report.moves += moved;
     bad = slivers();  // a move may leave a tet of its star under the bound where it lifts another
+    flat = flats();
     if (moved == 0) break;
   }
   const size_t undone = undo_crossings(points, start, tets, triangles, moved_open);
   report.moves -= std::min(report.moves, undone);
   report.slivers_after = undone > 0 ? slivers().size() : bad.size();
+  report.flat_after = undone > 0 ? flats().size() : flat.size();
   return report;
 }
 

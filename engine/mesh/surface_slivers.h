@@ -22,6 +22,10 @@
 // (the material across them thinner than its triangles are long: four interface vertices, two on each side, nearly
 // in one plane), a second search leaves the feature by up to `max_offset` (along the normal for an interface vertex,
 // in any direction for a curve vertex or a quadruple point, which has only this search), with the same rules.
+// Flat interface triangles are mended the same way (`min_ratio`): where two quadruple points 0.1-0.4 voxel apart
+// or a point beside a curve make a triangle of radius ratio 0.1-0.2 that no flip mends (its long edge is a curve
+// edge, or its quad folds), each of its vertices is moved to raise the smallest radius ratio among its triangles,
+// with no tet of it taken under the dihedral bound (nor one already under it made worse), under the same rules.
 // Sequential and deterministic (the steps are hashed_normal of the vertex, the pass and the draw).
 //
 // Inputs:  points     the volume mesh's points, the interface vertices first
@@ -31,7 +35,7 @@
 //                     quadruple point or any vertex with no feature to follow (moved only by the offset, so only with
 //                     max_offset > 0), 0 (and every point from movable.size() on) for a point that stays
 //          project    puts a position near vertex v back on v's feature; false where it cannot
-//          max_offset how far a vertex may leave its feature (0: it stays on it)
+//          options    the bounds, the offset and the passes (SurfaceMoveOptions)
 // Outputs: points     moved vertices' new positions
 #include <array>
 #include <cstdint>
@@ -44,7 +48,16 @@ namespace cpmesh::mesh {
 
 struct SurfaceSliverReport {
   size_t slivers_before = 0, slivers_after = 0;  // tets under the bound with a movable vertex
+  size_t flat_before = 0, flat_after = 0;        // interface triangles under min_ratio with a movable vertex
   size_t moves = 0;                              // vertex moves kept
+};
+
+struct SurfaceMoveOptions {
+  double target_deg = 12.0;      // the dihedral bound
+  double max_radius_edge = 1.5;  // no tet goes over 1.5 times this (or its own ratio where higher)
+  double max_offset = 0;         // how far a vertex may leave its feature (0: it stays on it)
+  double min_ratio = 0;          // interface triangles under this radius ratio are mended too (0: none)
+  int passes = 6;
 };
 
 using FeatureProjection = std::function<bool(uint32_t v, const glm::dvec3& near, glm::dvec3& on)>;
@@ -53,7 +66,6 @@ SurfaceSliverReport move_surface_vertices(std::vector<glm::dvec3>& points,
                                           const std::vector<std::array<uint32_t, 4>>& tets,
                                           const std::vector<std::array<uint32_t, 3>>& triangles,
                                           const std::vector<uint8_t>& movable, const FeatureProjection& project,
-                                          double target_deg = 12.0, double max_radius_edge = 1.5,
-                                          double max_offset = 0, int passes = 6);
+                                          const SurfaceMoveOptions& options = {});
 
 }  // namespace cpmesh::mesh

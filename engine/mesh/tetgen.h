@@ -66,6 +66,9 @@ struct QualityOptions {
   // How far the last sliver pass (surface_slivers.h) may move an interface or curve vertex off its feature, in voxels
   // (of the smallest spacing); 0 keeps every vertex on its feature. The voxels place an interface to about a voxel.
   double sliver_offset = 0.2;
+  // Interface triangles under this radius ratio have their vertices moved by the same pass, against the same tets
+  // (surface_slivers.h); 0: off.
+  double min_triangle_ratio = 0.3;
   bool keep_surface = true;      // TetGen -Y: no Steiner points on the input triangles
   // mesh_materials only: TetGen starts from interior_points (interior_points.h) as well as the surface vertices. On
   // the paper-size head's surfaces, one core: material 4 27.9 -> 14.5 s, material 1 74.3 -> 54.9 s, the same tets

@@ -59,7 +59,7 @@ TEST_CASE("move_surface_vertices: an interface vertex next to its ring's edge mo
   const double before = smallest_angle_deg(s);
   REQUIRE(before < 12);
   const std::vector<glm::dvec3> start = s.points;
-  const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5);
+  const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane);
   CHECK(r.slivers_before > 0);
   CHECK(r.moves > 0);
   CHECK(r.slivers_after == 0);
@@ -76,7 +76,7 @@ TEST_CASE("move_surface_vertices: on the outer boundary (no tets below the plane
   Star s = star(kNearEdge);
   std::erase_if(s.tets, [](const auto& t) { return t[3] == 8; });
   SUBCASE("nothing across the outside: it moves") {
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane);
     CHECK(r.slivers_before > 0);
     CHECK(r.moves > 0);
     CHECK(r.slivers_after == 0);
@@ -93,8 +93,8 @@ TEST_CASE("move_surface_vertices: on the outer boundary (no tets below the plane
     };
     Star without = s;
     without.triangles.pop_back();
-    CHECK(mesh::move_surface_vertices(without.points, without.tets, without.triangles, {1}, below, 12.0, 1.5).moves > 0);
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, below, 12.0, 1.5);
+    CHECK(mesh::move_surface_vertices(without.points, without.tets, without.triangles, {1}, below).moves > 0);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, below);
     CHECK(r.slivers_before > 0);
     CHECK(r.moves == 0);
     CHECK(s.points[0] == kNearEdge);
@@ -105,14 +105,14 @@ TEST_CASE("move_surface_vertices: on the outer boundary (no tets below the plane
 TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, or whose projection fails stays") {
   SUBCASE("not movable") {
     Star s = star(kNearEdge);
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {0}, onto_plane, 12.0, 1.5);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {0}, onto_plane);
     CHECK(r.slivers_before == 0);  // no tet under the bound has a movable vertex
     CHECK(s.points[0] == kNearEdge);
   }
   SUBCASE("a tet below the plane is missing: its star is broken") {
     Star s = star(kNearEdge);
     s.tets.pop_back();
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane);
     CHECK(r.slivers_before > 0);
     CHECK(r.moves == 0);
     CHECK(r.slivers_after == r.slivers_before);
@@ -121,7 +121,7 @@ TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, 
   SUBCASE("the projection gives no point") {
     Star s = star(kNearEdge);
     const mesh::FeatureProjection nowhere = [](uint32_t, const glm::dvec3&, glm::dvec3&) { return false; };
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, nowhere, 12.0, 1.5);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, nowhere);
     CHECK(r.moves == 0);
     CHECK(s.points[0] == kNearEdge);
   }
@@ -131,7 +131,7 @@ TEST_CASE("move_surface_vertices: a vertex not movable, on the mesh's boundary, 
       on = {near.x, near.y, 2.0};  // above the apex
       return true;
     };
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, far_up, 12.0, 1.5);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, far_up);
     CHECK(r.moves == 0);
     CHECK(s.points[0] == kNearEdge);
   }
@@ -142,18 +142,58 @@ TEST_CASE("move_surface_vertices: over a layer thinner than its triangles, the v
   Star s = star({0, 0, 0}, kBelow);
   REQUIRE(smallest_angle_deg(s) < 12);
   SUBCASE("no offset: no place on the plane mends the tets below") {
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5, 0.0);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, {.max_offset = 0.0});
     CHECK(r.slivers_after == r.slivers_before);
     CHECK(s.points[0].z == 0.0);
     CHECK(smallest_angle_deg(s) < 12);
   }
   SUBCASE("an offset: it moves up, away from the apex below") {
     const std::vector<glm::dvec3> start = s.points;
-    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, 12.0, 1.5, kOffset);
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, {.max_offset = kOffset});
     CHECK(r.slivers_after == 0);
     CHECK(smallest_angle_deg(s) >= 12);
     CHECK(s.points[0].z > 0.0);
     CHECK(s.points[0].z <= kOffset + 1e-12);
     for (const auto& t : s.tets) CHECK(signed_volume(s.points, t) * signed_volume(start, t) > 0);
+  }
+}
+
+TEST_CASE("move_surface_vertices: a flat interface triangle over fair tets is mended within its plane by min_ratio") {
+  // 80% of the way to the edge's middle: the triangle on that edge has radius ratio 0.21, the tets are all over 15
+  // degrees, so only the ratio bound moves the vertex.
+  const glm::dvec3 near_edge = 0.8 * 0.5 * (glm::dvec3(1, 0, 0) + glm::dvec3(0.5, std::sqrt(0.75), 0));
+  auto smallest_ratio = [](const Star& s) {
+    double worst = 1;
+    for (const auto& t : s.triangles)
+      worst = std::min(worst, mesh::radius_ratio(s.points[t[0]], s.points[t[1]], s.points[t[2]]));
+    return worst;
+  };
+  Star s = star(near_edge);
+  REQUIRE(smallest_angle_deg(s) > 15);
+  REQUIRE(smallest_ratio(s) < 0.25);
+  SUBCASE("no ratio bound: nothing to mend") {
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane);
+    CHECK(r.flat_before == 0);
+    CHECK(r.moves == 0);
+    CHECK(s.points[0] == near_edge);
+  }
+  SUBCASE("a bound of 0.3: the vertex moves in its plane until every triangle is over it") {
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {1}, onto_plane, {.min_ratio = 0.3});
+    CHECK(r.flat_before == 1);
+    CHECK(r.flat_after == 0);
+    CHECK(smallest_ratio(s) >= 0.3);
+    CHECK(smallest_angle_deg(s) >= 12);
+    CHECK(s.points[0].z == 0.0);
+  }
+  SUBCASE("a quadruple point (no feature to follow) moves only by the offset, and not without one") {
+    const auto r = mesh::move_surface_vertices(s.points, s.tets, s.triangles, {3}, onto_plane, {.min_ratio = 0.3});
+    CHECK(r.moves == 0);
+    CHECK(s.points[0] == near_edge);
+    Star t = star(near_edge);
+    const auto o = mesh::move_surface_vertices(t.points, t.tets, t.triangles, {3}, onto_plane,
+                                               {.max_offset = 0.25, .min_ratio = 0.3});
+    CHECK(o.moves > 0);
+    CHECK(smallest_ratio(t) > smallest_ratio(s));
+    CHECK(glm::length(t.points[0] - near_edge) <= 0.25 + 1e-12);
   }
 }

@@ -91,6 +91,11 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "material is too thin for any place on it, in voxels (0: every vertex stays on its interface)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
+  sub->add_option("--min-triangle-ratio", m.volume.min_triangle_ratio,
+                  "Volume mesh: the last sliver pass also moves the vertices of interface triangles under this radius "
+                  "ratio, where no tet goes under the dihedral bound for it (0: off)")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
   sub->add_option("--max-volume", m.volume.max_volume, "Volume mesh: largest tet volume, physical units^3 (0: none)")->capture_default_str();
   sub->add_option("--volume-runs", m.volume.runs,
                   "Volume mesh: TetGen runs to aim at in parallel, materials with large boundaries cut into pieces "
@@ -278,6 +283,8 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["volume_mesh"]["sliver_splits"] = rep.sliver_split.inserted;
             j["volume_mesh"]["sliver_cavities_remeshed"] = rep.sliver_split.remeshed;
             j["volume_mesh"]["interface_vertex_moves"] = rep.surface_slivers.moves;
+            j["volume_mesh"]["flat_interface_triangles"] = {{"before", rep.surface_slivers.flat_before},
+                                                            {"after", rep.surface_slivers.flat_after}};
             j["volume_mesh"]["slivers_left"] = rep.sliver_split.failed;
             j["volume_mesh"]["runs"] = mesh::volume_runs_json(rep);
             j["volume_mesh"]["separator_points"] = rep.volume_separator_points;
