@@ -382,7 +382,8 @@ TEST_CASE_FIXTURE(GpuFixture, "the repair inserts curve points into the Delaunay
 TEST_CASE_FIXTURE(GpuFixture, "concentric shells with 1- and 1.5-voxel layers: crossing-free interfaces and a volume mesh") {
   // Layers thinner than the triangles are wide: the interface smoothing once pushed triangles of one side through
   // the other's, and TetGen refused the surfaces ("a segment and a subface intersect"). The thin layers' own mesh
-  // quality is not asserted here: their interfaces follow the one-voxel staircase (see README, known limitations).
+  // quality is not asserted here: their interfaces follow the one-voxel staircase (docs/benchmarks.md, "The wedge
+  // ball, thin layers and the 128³ comparison").
   const auto volume = synth(io::SynthShape::shells, 32, 0);
   const auto r = mesh::mesh_volume(ctx, volume);
   const auto& rep = r.report;
