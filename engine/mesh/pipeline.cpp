@@ -378,7 +378,7 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     T = delaunay_mesh->tets(&adj);
   });
   std::vector<uint16_t> material, hull;
-  size_t fewest_faces = SIZE_MAX;
+  std::pair<size_t, size_t> fewest_faces{SIZE_MAX, SIZE_MAX};
   int stalled = 0;
   // The round with the fewest faces to refine: where later rounds made it worse (samples crowding a thin sheet's
   // two sides), the refinement ends with that round's mesh.
@@ -394,17 +394,26 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     MeshReport report;
   } best;
   // The faces to mend (the wrong ones, and those around interface edges that are not manifold) and their sites; the
-  // report lists where the first of them lie.
+  // report lists where the first of them lie. Once there are none, those around pinched junction vertices
+  // (refine.h, pinched_vertex_faces), which are no part of the guarantee: the refinement reaches the guarantee as it
+  // would without them, then refines them, and a round that breaks the guarantee for them is not kept.
+  struct FacesToMend {
+    std::vector<RefineSite> sites;
+    std::pair<size_t, size_t> count;  // the guarantee's faces, then the pinched vertices'; rounds compare by both
+  };
   auto faces_to_mend = [&](const std::vector<uint32_t>& wrong) {
-    std::vector<uint32_t> faces = nonmanifold_faces(extract_interfaces(T, adj, hull, material, kind));
+    const InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
+    std::vector<uint32_t> faces = nonmanifold_faces(I);
     faces.insert(faces.end(), wrong.begin(), wrong.end());
+    const size_t guarantee = faces.size();
+    if (guarantee == 0) faces = pinched_vertex_faces(I);
     std::vector<RefineSite> sites = face_sites(F.fields, T, adj, hull, material, vertex_materials, faces);
     rep.refinement_left.clear();
-    for (size_t i = 0; i < sites.size() && i < kMaxRefinementLeft; ++i) {
+    for (size_t i = 0; i < guarantee && i < kMaxRefinementLeft; ++i) {
       const glm::dvec3 q = grid.to_physical(sites[i].at);
       rep.refinement_left.push_back({{labels[sites[i].m], labels[sites[i].o]}, {q.x, q.y, q.z}});
     }
-    return std::pair{std::move(faces), std::move(sites)};
+    return FacesToMend{std::move(sites), {guarantee, guarantee > 0 ? 0 : faces.size()}};
   };
   for (int round = 0;; ++round) {
     material = label_tets(F.fields, T);
@@ -419,28 +428,29 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       wrong = wrong_faces(T, adj, hull, vertex_materials, material);
     }
     rep.wrong_faces = wrong.size();
-    const auto [faces, sites] = faces_to_mend(wrong);
+    const auto [sites, faces] = faces_to_mend(wrong);
     rep.refinement_rounds = round;
     // A round that leaves more faces to refine than the best round three rounds ago ends it: what is left cycles.
-    stalled = faces.size() < fewest_faces ? 0 : stalled + 1;
-    update("refinement round " + std::to_string(round) + ": " + count(faces.size()) + " faces to mend, " +
-           count(points.size()) + " points");
-    const bool last = sites.empty() || round == options.repair_rounds || stalled == 3;
-    if (faces.size() < fewest_faces && !last)
+    stalled = faces < fewest_faces ? 0 : stalled + 1;
+    update("refinement round " + std::to_string(round) + ": " + count(faces.first) + " faces to mend, " +
+           count(faces.second) + " at pinched junctions, " + count(points.size()) + " points");
+    bool last = sites.empty() || round == options.repair_rounds || stalled == 3;
+    if (faces < fewest_faces && !last)
       best = {T, adj, material, hull, points, kind, vertex_materials, vertex_h, vertex_feature, rep};
-    if (faces.size() > fewest_faces && last) {
+    Refinement extra;
+    if (!last)
+      extra = refinement_points(F.fields, F.embedding, sites, {points, vertex_materials, vertex_h, moved},
+                                options.junction_protection);
+    last = last || (extra.added.empty() && extra.moved.empty() && extra.removed.empty());  // no room left
+    if (faces > fewest_faces && last) {
       const int rounds = rep.refinement_rounds;
       std::tie(T, adj, material, hull, points, kind, vertex_materials, vertex_h, vertex_feature, rep) =
           std::tie(best.T, best.adj, best.material, best.hull, best.points, best.kind, best.vertex_materials,
                    best.vertex_h, best.vertex_feature, best.report);
       rep.refinement_rounds = rounds;
     }
-    fewest_faces = std::min(fewest_faces, faces.size());
+    fewest_faces = std::min(fewest_faces, faces);
     if (last) break;
-    const Refinement extra =
-        refinement_points(F.fields, F.embedding, sites, {points, vertex_materials, vertex_h, moved},
-                          options.junction_protection);
-    if (extra.added.empty() && extra.moved.empty() && extra.removed.empty()) break;
     std::vector<glm::dvec3> positions;
     for (const RefinePoint& e : extra.added) {
       add_vertex(e.position, e.feature, e.h);

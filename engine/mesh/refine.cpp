@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <optional>
+#include <span>
 #include <unordered_map>
 
 #include <tbb/parallel_for.h>
@@ -170,6 +171,65 @@ std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
       j = k;
     }
     i = end;
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+namespace {
+
+// How many fans the triangles `run` (indices into T, all through vertex v) form: two are of one fan where they share
+// an edge through v.
+size_t fans_at(uint32_t v, std::span<const uint32_t> run, const std::vector<std::array<uint32_t, 3>>& T) {
+  std::vector<int> fan(run.size(), -1);
+  size_t fans = 0;
+  std::vector<size_t> stack;
+  for (size_t s = 0; s < run.size(); ++s) {
+    if (fan[s] >= 0) continue;
+    fan[s] = int(fans);
+    stack.assign(1, s);
+    while (!stack.empty()) {
+      const auto& a = T[run[stack.back()]];
+      stack.pop_back();
+      for (size_t o = 0; o < run.size(); ++o) {
+        if (fan[o] >= 0) continue;
+        const auto& b = T[run[o]];
+        for (uint32_t u : a)
+          if (u != v && std::find(b.begin(), b.end(), u) != b.end()) {
+            fan[o] = int(fans);
+            stack.push_back(o);
+            break;
+          }
+      }
+    }
+    ++fans;
+  }
+  return fans;
+}
+
+}  // namespace
+
+std::vector<uint32_t> pinched_vertex_faces(const InterfaceMesh& I) {
+  struct Corner {
+    uint32_t v, group, triangle;
+    auto operator<=>(const Corner&) const = default;
+  };
+  std::vector<Corner> corners;
+  corners.reserve(3 * I.triangles.size());
+  for (uint32_t t = 0; t < I.triangles.size(); ++t)
+    for (uint32_t v : I.triangles[t]) corners.push_back({v, uint32_t(I.pair[t][0]) << 16 | I.pair[t][1], t});
+  std::sort(corners.begin(), corners.end());
+  std::vector<uint32_t> out, run;
+  for (size_t i = 0; i < corners.size();) {
+    size_t j = i;
+    run.clear();
+    for (; j < corners.size() && corners[j].v == corners[i].v && corners[j].group == corners[i].group; ++j)
+      run.push_back(corners[j].triangle);
+    const bool junction = I.vertex_kind[corners[i].v] != uint8_t(fields::FeatureKind::interface);
+    if (junction && run.size() > 1 && fans_at(corners[i].v, run, I.triangles) > 1)
+      for (uint32_t t : run) out.push_back(I.face[t]);
+    i = j;
   }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());

@@ -63,6 +63,13 @@ std::vector<RefineSite> face_sites(const fields::IndicatorFields& fields, const 
 // fewer than three interface triangles share or that end at an interface vertex.
 std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& mesh);
 
+// The tet faces of the interface triangles around triple-curve and quadruple-point vertices where an interface's
+// triangles form more than one fan (pinched at the vertex: its edges may all be manifold). Not part of the guarantee
+// (which asks for edge-manifold interfaces), but there a sample short of the junctions' shape, refined as a
+// non-manifold edge is. An interface vertex's pinch is left: it is where a thin sheet's two sides meet in the
+// fields themselves, which samples cannot part (docs/design.md, "Delaunay refinement").
+std::vector<uint32_t> pinched_vertex_faces(const InterfaceMesh& mesh);
+
 // The faults of an interface edge with `in_interface` triangles of one interface and `around` interface triangles of
 // all interfaces: the triangles over two, or one for a single triangle off a triple curve (fewer than three
 // interface triangles around it, or an end that is not a junction vertex). nonmanifold_faces reports the faces of

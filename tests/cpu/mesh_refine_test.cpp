@@ -37,6 +37,30 @@ TEST_CASE("refinement faces: none on a closed interface, all three around a fin"
   CHECK(nonmanifold_faces(m) == std::vector<uint32_t>{10, 13, 20});
 }
 
+TEST_CASE("pinched vertices: two closed surfaces of one interface touching at a junction vertex, every edge manifold") {
+  InterfaceMesh m = closed_tetrahedron();
+  m.vertex_kind[3] = kCurve;
+  CHECK(pinched_vertex_faces(m).empty());
+  // A second tetrahedron 3-5-6-7 of the same interface, sharing vertex 3 only; faces 20, 21, ...
+  m.vertices.insert(m.vertices.end(), {{1, 0, 2}, {0, 1, 2}, {0, 0, 3}});
+  m.vertex_kind.resize(8, kInterface);
+  for (const auto& t : std::vector<std::array<uint32_t, 3>>{{3, 6, 5}, {3, 5, 7}, {3, 7, 6}, {5, 6, 7}}) {
+    m.triangles.push_back(t);
+    m.pair.push_back({0, 1});
+    m.face.push_back(20 + uint32_t(m.face.size() - 4));
+  }
+  CHECK(nonmanifold_faces(m).empty());
+  // Vertex 3's triangles: 11, 12, 13 of the first surface and 20, 21, 22 of the second, two fans.
+  CHECK(pinched_vertex_faces(m) == std::vector<uint32_t>{11, 12, 13, 20, 21, 22});
+  // At an interface vertex, a thin part's two sides meeting: left.
+  m.vertex_kind[3] = kInterface;
+  CHECK(pinched_vertex_faces(m).empty());
+  // Of two interfaces, each one fan at vertex 3: no pinch.
+  m.vertex_kind[3] = kCurve;
+  for (size_t t = 4; t < 8; ++t) m.pair[t] = {0, 2};
+  CHECK(pinched_vertex_faces(m).empty());
+}
+
 TEST_CASE("refinement faces: interfaces ending on a triple curve are right, ending on an interface vertex are not") {
   // Tet 0-1-2-3 of material 1 and tet 1-2-3-4 of material 2 in material 0: interfaces 0/1 and 0/2 end on the triple
   // curve 1-2-3 (0, 1, 2), where the single triangle of 1/2 lies.
