@@ -133,8 +133,12 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   sub->add_option("--flip-passes", m.flips.passes,
                   "Passes of edge flips inside each interface between two smoothings (0: none): an edge is flipped "
-                  "where the quad across it is flat within 15 degrees and the worse triangle gains radius ratio 0.02")
+                  "where the quad across it is flat within --flip-fold degrees and the worse triangle gains radius ratio 0.02")
       ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  sub->add_option("--flip-fold", m.flips.max_fold_deg,
+                  "Largest angle between the normals of an edge's two triangles, before and after, for a flip, degrees")
+      ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
   sub->add_option("--label-volume-tolerance", m.label_volumes.tolerance,
                   "Last, a label (of over 64 voxels, closed) whose interfaces enclose more than this share "
