@@ -1,7 +1,9 @@
 #pragma once
 // A triangle's three vertex indices in ascending order: the key under which the two tets sharing a face (or a tet
 // face and an interface triangle) meet, whatever order each lists them in. Used by the tet adjacency (extract.cpp),
-// the sliver pass (smooth.cpp) and the conformity check (quality.cpp nonconforming_faces).
+// the sliver pass (smooth.cpp) and the conformity check (quality.cpp nonconforming_faces). And a material pair's key,
+// whatever order it is given in: the interface an edge or a triangle belongs to (quality.cpp, refine.cpp,
+// mend_topology.cpp).
 #include <algorithm>
 #include <array>
 #include <cstddef>
@@ -24,5 +26,8 @@ struct FaceKeyHash {
     return size_t(h ^ (h >> 29));
   }
 };
+
+// The smaller material in the high 16 bits, the larger in the low.
+inline uint32_t pair_key(uint16_t a, uint16_t b) { return uint32_t(std::min(a, b)) << 16 | std::max(a, b); }
 
 }  // namespace cpmesh::mesh

@@ -10,6 +10,7 @@
 #include "fields/closest_point_embedding.h"
 #include "mesh/elements_around.h"
 #include "mesh/extract.h"
+#include "mesh/face_key.h"
 #include "mesh/refine.h"
 
 namespace cpmesh::mesh {
@@ -46,7 +47,7 @@ class Faults {
     for (uint32_t tc : faces_around(e)) {
       const uint16_t m = material_[tc / 4], o = material_across(adj_, hull_, material_, tc);
       if (m == o) continue;
-      const uint32_t key = uint32_t(std::min(m, o)) << 16 | std::max(m, o);
+      const uint32_t key = pair_key(m, o);
       auto it = std::find_if(count.begin(), count.end(), [&](const auto& c) { return c.first == key; });
       if (it == count.end()) count.push_back({key, 1});
       else ++it->second;

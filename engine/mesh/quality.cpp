@@ -298,7 +298,7 @@ std::vector<CurveEdge> triple_curve_edges(const std::vector<std::array<uint32_t,
   std::vector<std::pair<uint64_t, uint32_t>> entries(T.size() * 3);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, T.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t t = r.begin(); t < r.end(); ++t) {
-      const uint32_t p = uint32_t(std::min(pair[t][0], pair[t][1])) << 16 | std::max(pair[t][0], pair[t][1]);
+      const uint32_t p = pair_key(pair[t][0], pair[t][1]);
       for (int e = 0; e < 3; ++e) entries[t * 3 + size_t(e)] = {edge_key(T[t][size_t(e)], T[t][size_t((e + 1) % 3)]), p};
     }
   });

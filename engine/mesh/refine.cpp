@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include "fields/closest_point_embedding.h"
+#include "mesh/face_key.h"
 #include "ref/cp_lookup.h"
 
 namespace cpmesh::mesh {
@@ -148,7 +149,7 @@ std::vector<uint32_t> nonmanifold_faces(const InterfaceMesh& I) {
   edges.reserve(3 * I.triangles.size());
   for (uint32_t t = 0; t < I.triangles.size(); ++t) {
     const auto& tri = I.triangles[t];
-    const uint32_t g = uint32_t(I.pair[t][0]) << 16 | I.pair[t][1];
+    const uint32_t g = pair_key(I.pair[t][0], I.pair[t][1]);
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = tri[size_t(k)], b = tri[size_t((k + 1) % 3)];
       edges.push_back({std::min(a, b), std::max(a, b), g, t});
@@ -215,10 +216,11 @@ std::vector<uint32_t> pinched_vertex_faces(const InterfaceMesh& I) {
     uint32_t v, group, triangle;
     auto operator<=>(const Corner&) const = default;
   };
-  std::vector<Corner> corners;
-  corners.reserve(3 * I.triangles.size());
+  std::vector<Corner> corners;  // the junction vertices' only: an interface vertex's pinch is left
   for (uint32_t t = 0; t < I.triangles.size(); ++t)
-    for (uint32_t v : I.triangles[t]) corners.push_back({v, uint32_t(I.pair[t][0]) << 16 | I.pair[t][1], t});
+    for (uint32_t v : I.triangles[t])
+      if (I.vertex_kind[v] != uint8_t(fields::FeatureKind::interface))
+        corners.push_back({v, pair_key(I.pair[t][0], I.pair[t][1]), t});
   std::sort(corners.begin(), corners.end());
   std::vector<uint32_t> out, run;
   for (size_t i = 0; i < corners.size();) {
@@ -226,8 +228,7 @@ std::vector<uint32_t> pinched_vertex_faces(const InterfaceMesh& I) {
     run.clear();
     for (; j < corners.size() && corners[j].v == corners[i].v && corners[j].group == corners[i].group; ++j)
       run.push_back(corners[j].triangle);
-    const bool junction = I.vertex_kind[corners[i].v] != uint8_t(fields::FeatureKind::interface);
-    if (junction && run.size() > 1 && fans_at(corners[i].v, run, I.triangles) > 1)
+    if (run.size() > 1 && fans_at(corners[i].v, run, I.triangles) > 1)
       for (uint32_t t : run) out.push_back(I.face[t]);
     i = j;
   }
