@@ -118,7 +118,8 @@ struct MeshReport {
   double band_voxels = 0;  // the indicator fields' band, as chosen
   size_t particles = 0, rounds = 0;
   size_t protected_particles = 0;  // interface particles left out near junctions (MeshOptions::junction_protection)
-  size_t off_feature_particles = 0;  // particles left out for lying off their feature (particles::drop_off_feature)
+  size_t off_feature_particles = 0;  // particles left out for lying off their feature (particles::drop_off_feature),
+                                     // between the rounds and after the last
   size_t crowded_particles = 0;  // particles left out for crowding a neighbour on their feature (particles::thin_crowded)
   int iterations = 0;
   bool settled = false, steady = false;

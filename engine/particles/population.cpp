@@ -532,7 +532,8 @@ void SteadyRule::after_round(uint32_t added, uint32_t deleted, uint32_t n) {
 
 RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Population start,
                   const AdvectionOptions& advection, const PopulationOptions& options,
-                  const std::function<void(const RoundReport&)>& on_round) {
+                  const std::function<void(const RoundReport&)>& on_round,
+                  const std::function<size_t(Population&)>& prune) {
   using clock = std::chrono::steady_clock;
   RelaxResult result;
   result.population = std::move(start);
@@ -579,6 +580,10 @@ RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& E, Pop
       for (size_t i = 0; i < walk.size(); ++i) energies[i] = walk[i].w;
       result.population =
           add_delete(E, result.population, energies, system.flags(), check.energy_ratio, options, rng, rep);
+      if (prune) {
+        rep.pruned = uint32_t(prune(result.population));
+        rep.deleted += rep.pruned;
+      }
       rep.host_seconds = seconds_since(t);
     }
     const bool unchanged = !last && rep.added == 0 && rep.deleted == 0;

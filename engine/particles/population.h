@@ -188,6 +188,7 @@ struct RoundReport {
   double energy = 0;         // total energy at the end of the run
   uint32_t flagged_delete = 0, flagged_add = 0;
   uint32_t added = 0, deleted = 0, total = 0;  // total: after the round's changes
+  uint32_t pruned = 0;  // removed by relax's prune after the add/delete step (counted in deleted too)
   double max_feature_deviation = 0;  // max over features of |mean E / (ideal x relaxed_energy_ratio) - 1|
   double advect_seconds = 0, check_seconds = 0, host_seconds = 0;
 };
@@ -228,10 +229,14 @@ struct RelaxResult {
 };
 
 // Advection runs and add/delete rounds until the population is settled (or max_rounds). on_round is called after
-// every round (progress).
+// every round (progress). prune, where given, runs after every add/delete step and returns how many particles it
+// removed: the mesher drops the particles that the lookup took off their feature there (drop_off_feature), so that
+// the next run relaxes the others without them and the add steps fill the gaps they leave (docs/design.md, "Particles
+// off their feature").
 RelaxResult relax(gpu::Context& ctx, const fields::ClosestPointEmbedding& embedding, Population start,
                   const AdvectionOptions& advection, const PopulationOptions& options,
-                  const std::function<void(const RoundReport&)>& on_round = {});
+                  const std::function<void(const RoundReport&)>& on_round = {},
+                  const std::function<size_t(Population&)>& prune = {});
 
 // Junction protection, for meshing: removes every interface particle closer than rho x its h to a triple curve or
 // quadruple point that bounds its interface (curves: the closest point on the curve of the smooth fields, by the
