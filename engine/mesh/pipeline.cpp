@@ -288,6 +288,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   begin("advection");
   int iterations_so_far = 0;
+  const auto drop_off_feature = [&](particles::Population& P) {
+    return particles::drop_off_feature(F.fields, F.embedding, P, kOffFeatureShare);
+  };
   auto relaxed = particles::relax(ctx, F.embedding, seeds,
                                   particles::with_sizing_grading(options.advection, options.fields.sizing.grading),
                                   options.population,
@@ -299,11 +302,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
                                     update("round " + std::to_string(r.round) + ", " + count(r.total) + " particles, " +
                                            std::to_string(iterations_so_far) + " iterations" + times);
                                   },
-                                  [&](particles::Population& P) {
-                                    return particles::drop_off_feature(F.fields, F.embedding, P, kOffFeatureShare);
-                                  });
+                                  drop_off_feature);
   for (const auto& r : relaxed.rounds) rep.off_feature_particles += r.pruned;
-  rep.off_feature_particles += particles::drop_off_feature(F.fields, F.embedding, relaxed.population, kOffFeatureShare);
+  rep.off_feature_particles += drop_off_feature(relaxed.population);
   rep.crowded_particles = particles::thin_crowded(F.embedding, relaxed.population, kCrowdedShare);
   rep.protected_particles =
       particles::protect_junctions(F.fields, F.embedding, relaxed.population, options.junction_protection);
