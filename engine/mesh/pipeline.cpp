@@ -478,10 +478,21 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     });
   }
   delaunay_mesh.reset();
+  // The mend, then where wrong faces are left the last resort (refine.h, junction_snaps) and the mend again.
   const TopologyMendReport mended = mend_topology(T, adj, hull, vertex_materials, kind, material);
   rep.mend_edges = mended.edges, rep.mend_relabelled = mended.relabelled;
-  if (mended.relabelled > 0) {
-    const std::vector<uint32_t> wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+  std::vector<uint32_t> wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+  const auto snaps = junction_snaps(F.fields, F.embedding, T, adj, hull, material, wrong, vertex_h, vertex_materials);
+  for (const auto& [v, to] : snaps) {
+    set_vertex(v, to.position, to.feature, to.h);
+    T.points[v] = to.position;
+  }
+  rep.refinement_moves += snaps.size();
+  if (!snaps.empty()) {
+    rep.mend_relabelled += mend_topology(T, adj, hull, vertex_materials, kind, material).relabelled;
+    wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+  }
+  if (mended.relabelled > 0 || !snaps.empty()) {
     rep.wrong_faces = wrong.size();
     faces_to_mend(wrong);
   }

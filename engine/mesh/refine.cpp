@@ -396,4 +396,31 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
   return widened;
 }
 
+std::vector<std::pair<uint32_t, RefinePoint>> junction_snaps(const fields::IndicatorFields& F,
+                                                             const fields::ClosestPointEmbedding& E, const Tets& T,
+                                                             const Adjacency& adj, const std::vector<uint16_t>& hull,
+                                                             const std::vector<uint16_t>& material,
+                                                             const std::vector<uint32_t>& wrong, const std::vector<float>& h,
+                                                             const std::vector<fields::MaterialList>& vertex_materials) {
+  std::vector<std::pair<uint32_t, RefinePoint>> out;
+  for (uint32_t tc : wrong) {
+    const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
+    for (uint32_t v : outward_face(T, tc)) {
+      const fields::MaterialList& own = vertex_materials[v];
+      const bool taken = std::any_of(out.begin(), out.end(), [&](const auto& s) { return s.first == v; });
+      if (own.size() != 2 || (own.has(m) && own.has(o)) || taken) continue;
+      const std::vector<uint16_t> needed = fields::union_of(std::span(&own, 1), {m, o});
+      std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+      if (needed.size() > key.size()) continue;
+      std::copy(needed.begin(), needed.end(), key.begin());
+      const int f = E.feature_index(needed.size() == 3 ? fields::FeatureKind::triple_curve
+                                                       : fields::FeatureKind::quadruple_point, key);
+      const double reach = kJunctionReach * F.grid.min_spacing();
+      const auto to = f < 0 ? std::nullopt : closest_on_feature(F, E, T.points[v], uint32_t(f), reach, h[v]);
+      if (to && glm::length(to->position - T.points[v]) <= reach) out.push_back({v, *to});
+    }
+  }
+  return out;
+}
+
 }  // namespace cpmesh::mesh

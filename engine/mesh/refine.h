@@ -135,4 +135,17 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& fields, const fiel
                                const std::vector<uint32_t>& wrong, const std::vector<float>& h,
                                std::vector<fields::MaterialList>& vertex_materials);
 
+// The last resort where faults are left after the refinement and the mend (docs/design.md, "Mending by
+// relabelling"): an interface vertex of a wrong face that lacks the face's materials, where the refinement could not
+// move it onto their junction for the junction vertices already around it (the tip of a tube a voxel thick ending on
+// a sheet), goes there anyway: the triple curve (or quadruple point) of its two materials and the missing ones,
+// where its closest point lies within kJunctionReach voxels. Returns each such vertex once, with where it goes.
+std::vector<std::pair<uint32_t, RefinePoint>> junction_snaps(const fields::IndicatorFields& fields,
+                                                             const fields::ClosestPointEmbedding& embedding,
+                                                             const Tets& tets, const Adjacency& adj,
+                                                             const std::vector<uint16_t>& hull,
+                                                             const std::vector<uint16_t>& material,
+                                                             const std::vector<uint32_t>& wrong, const std::vector<float>& h,
+                                                             const std::vector<fields::MaterialList>& vertex_materials);
+
 }  // namespace cpmesh::mesh

@@ -1,6 +1,7 @@
 // mesh::mend_topology (mend_topology.h): four tets around one edge, labelled 1, 2, 1, 2 in turn, pinch interface 1/2
 // at that edge (four triangles): relabelling one run joins two of the others and leaves the edge in two triangles. A
 // slab far thinner than its sampling: fewer pinched edges after, counted by a plain loop, and no more wrong faces.
+// mesh::junction_snaps (refine.h): an interface vertex of a wrong face beside a triple curve goes onto the curve.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -13,6 +14,8 @@
 #include "mesh/adjacency.h"
 #include "mesh/extract.h"
 #include "mesh/mend_topology.h"
+#include "mesh/refine.h"
+#include "fields_volumes.h"
 #include "ball_points.h"
 
 using namespace cpmesh;
@@ -107,4 +110,56 @@ TEST_CASE("mend_topology: a sheet thinner than the sampling, pinched at many edg
   CHECK(rep.relabelled > 0);
   CHECK(pinched_after < pinched_before / 2);
   CHECK(mesh::wrong_faces(T, adj, hull, materials, material).size() <= wrong_before);
+}
+
+TEST_CASE("junction_snaps: an interface vertex of a wrong face a fifth of a voxel from the triple curve goes onto it; "
+          "one a voxel away stays") {
+  // Labels 1 (x < 8), 2 (x >= 8, y < 8) and 3 (x >= 8, y >= 8): interface 1/2 at x = 8 below y = 8, and the triple
+  // curve of 1, 2 and 3 along z at about (7.5, 7.5) in voxel-centre coordinates.
+  const io::LabelVolume vol = test::label_volume(16, 16, 16, [](int i, int j, int) { return i < 8 ? 1 : j < 8 ? 2 : 3; });
+  const fields::Grid grid = fields::grid_of(vol);
+  const auto F = fields::build_indicator_fields(grid, vol.labels.data());
+  const auto E = fields::build_closest_point_embedding(F);
+  auto index_of = [&](uint16_t label) { return uint16_t(std::find(F.labels.begin(), F.labels.end(), label) - F.labels.begin()); };
+  const uint16_t m1 = index_of(1), m2 = index_of(2), m3 = index_of(3);
+  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+  std::array<uint16_t, 3> mats = {m1, m2, m3};
+  std::sort(mats.begin(), mats.end());
+  std::copy(mats.begin(), mats.end(), key.begin());
+  const int curve = E.feature_index(fields::FeatureKind::triple_curve, key);
+  REQUIRE(curve >= 0);
+  // A point of the curve at z = 8 (Newton from the voxel corner), and the interface 1/2's points beside it.
+  glm::dvec3 on_curve;
+  REQUIRE(fields::project_to_feature(F, E.features[size_t(curve)], glm::dvec3(7.5, 7.5, 8.0), on_curve));
+  for (const double away : {0.2, 1.0}) {
+    // Two tets, of materials 2 and 3, sharing the face (v, a, b): a and b on the interface 2/3, v on 1/2 only.
+    mesh::Tets T;
+    const glm::dvec3 v = on_curve - glm::dvec3(0, away, 0);
+    T.points = {v, on_curve + glm::dvec3(1, 0, -1), on_curve + glm::dvec3(1, 0, 1), on_curve + glm::dvec3(1.5, -1, 0),
+                on_curve + glm::dvec3(1.5, 1, 0)};
+    T.tets = {{0, 1, 2, 3}, {0, 2, 1, 4}};
+    const mesh::Adjacency adj = mesh::build_adjacency(T);
+    std::vector<uint16_t> material{m2, m3}, hull(adj.neighbour.size(), 0);
+    for (size_t tc = 0; tc < hull.size(); ++tc)
+      if (adj.neighbour[tc] == mesh::Adjacency::kHull) hull[tc] = material[tc / 4];
+    std::vector<fields::MaterialList> vm = {fields::MaterialList(std::vector<uint16_t>{m1, m2}),
+                                            fields::MaterialList(std::vector<uint16_t>{m2, m3}),
+                                            fields::MaterialList(std::vector<uint16_t>{m2, m3}),
+                                            fields::MaterialList(std::vector<uint16_t>{m2}),
+                                            fields::MaterialList(std::vector<uint16_t>{m3})};
+    const std::vector<uint32_t> wrong = mesh::wrong_faces(T, adj, hull, vm, material);
+    REQUIRE(wrong.size() == 1);
+    const auto snaps = mesh::junction_snaps(F, E, T, adj, hull, material, wrong, std::vector<float>(5, 1.0f), vm);
+    if (away > 0.5) {
+      CHECK(snaps.empty());
+      continue;
+    }
+    REQUIRE(snaps.size() == 1);
+    CHECK(snaps[0].first == 0);
+    CHECK(snaps[0].second.feature == uint32_t(curve));
+    const glm::dvec3 to = snaps[0].second.position;
+    MESSAGE("snapped " << glm::length(to - v) << " voxel, to " << glm::length(to - on_curve) << " from the curve point");
+    CHECK(fields::feature_distance(F, E.features[size_t(curve)], to) < 0.05);
+    CHECK(glm::length(to - on_curve) < 0.1);
+  }
 }
