@@ -48,25 +48,31 @@ class PointHash {
   std::unordered_map<uint64_t, std::vector<std::pair<glm::dvec3, int64_t>>> cells_;
 };
 
+// The embedding feature of exactly `materials` (ascending): two name an interface, three a triple curve, four or
+// more the quadruple point of the first four; -1 where the embedding has none.
+int feature_of(const fields::ClosestPointEmbedding& E, std::span<const uint16_t> materials) {
+  using fields::FeatureKind;
+  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
+  std::copy_n(materials.begin(), std::min(materials.size(), key.size()), key.begin());
+  const size_t n = materials.size();
+  return E.feature_index(n == 2 ? FeatureKind::interface : n == 3 ? FeatureKind::triple_curve : FeatureKind::quadruple_point, key);
+}
+
 // The features a site may take a sample on: the interface of m and o, and the triple curves and quadruple points of
 // m, o and the materials its vertices lie on.
 std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E, const RefineSite& s) {
-  using fields::FeatureKind;
   std::vector<uint16_t> others;
   for (uint16_t m : s.vertex_materials)
     if (m != s.m && m != s.o) others.push_back(m);
   std::vector<uint32_t> out;
-  auto add = [&](FeatureKind kind, std::vector<uint16_t> mats) {
+  auto add = [&](std::vector<uint16_t> mats) {
     std::sort(mats.begin(), mats.end());
-    std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-    std::copy(mats.begin(), mats.end(), key.begin());
-    const int f = E.feature_index(kind, key);
-    if (f >= 0) out.push_back(uint32_t(f));
+    if (const int f = feature_of(E, mats); f >= 0) out.push_back(uint32_t(f));
   };
-  add(FeatureKind::interface, {s.m, s.o});
+  add({s.m, s.o});
   for (size_t a = 0; a < others.size(); ++a) {
-    add(FeatureKind::triple_curve, {s.m, s.o, others[a]});
-    for (size_t b = a + 1; b < others.size(); ++b) add(FeatureKind::quadruple_point, {s.m, s.o, others[a], others[b]});
+    add({s.m, s.o, others[a]});
+    for (size_t b = a + 1; b < others.size(); ++b) add({s.m, s.o, others[a], others[b]});
   }
   return out;
 }
@@ -75,11 +81,8 @@ std::vector<uint32_t> candidate_features(const fields::ClosestPointEmbedding& E,
 // it exists and lies within h of p.
 std::optional<RefinePoint> junction_point(const fields::ClosestPointEmbedding& E, const glm::dvec3& p,
                                           const std::vector<uint16_t>& materials) {
-  const int n = int(materials.size());
-  if (n < 3 || n > 4) return std::nullopt;
-  std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-  std::copy(materials.begin(), materials.end(), key.begin());
-  const int f = E.feature_index(n == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
+  if (materials.size() < 3 || materials.size() > 4) return std::nullopt;
+  const int f = feature_of(E, materials);
   if (f < 0) return std::nullopt;
   const auto cp = ref::cp_lookup(E, glm::vec3(p), uint32_t(f));
   const glm::dvec3 q(glm::vec3(cp.value));
@@ -378,9 +381,7 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
         // A subset of five or more materials names the quadruple point of its first four: where five or more labels
         // crowd within a voxel, that point stands for the cluster (docs/design.md, "Junctions closer than the
         // crowding radius").
-        std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-        std::copy_n(S.begin(), std::min<size_t>(S.size(), key.size()), key.begin());
-        const int f = E.feature_index(S.size() == 3 ? fields::FeatureKind::triple_curve : fields::FeatureKind::quadruple_point, key);
+        const int f = feature_of(E, S);
         const double radius = junction_radius(h[v], F.grid.min_spacing());
         if (f < 0) continue;
         const auto on = closest_on_feature(F, E, p, uint32_t(f), radius, h[v]);
@@ -410,11 +411,7 @@ std::vector<std::pair<uint32_t, RefinePoint>> junction_snaps(const fields::Indic
       const bool taken = std::any_of(out.begin(), out.end(), [&](const auto& s) { return s.first == v; });
       if (own.size() != 2 || (own.has(m) && own.has(o)) || taken) continue;
       const std::vector<uint16_t> needed = fields::union_of(std::span(&own, 1), {m, o});
-      std::array<uint16_t, 4> key = {0xffff, 0xffff, 0xffff, 0xffff};
-      if (needed.size() > key.size()) continue;
-      std::copy(needed.begin(), needed.end(), key.begin());
-      const int f = E.feature_index(needed.size() == 3 ? fields::FeatureKind::triple_curve
-                                                       : fields::FeatureKind::quadruple_point, key);
+      const int f = needed.size() > 4 ? -1 : feature_of(E, needed);
       const double reach = kJunctionReach * F.grid.min_spacing();
       const auto to = f < 0 ? std::nullopt : closest_on_feature(F, E, T.points[v], uint32_t(f), reach, h[v]);
       if (to && glm::length(to->position - T.points[v]) <= reach) out.push_back({v, *to});
