@@ -478,27 +478,24 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
     });
   }
   delaunay_mesh.reset();
-  // The mend, then where wrong faces are left the last resort (refine.h, junction_snaps) and the mend again.
+  // The mend, then where wrong faces are left the last resort (refine.h, wrong_vertex_junctions: the vertex takes the
+  // junction as its feature where it stands) and the mend again.
   const TopologyMendReport mended = mend_topology(T, adj, hull, vertex_materials, kind, material);
   rep.mend_edges = mended.edges, rep.mend_relabelled = mended.relabelled;
   std::vector<uint32_t> wrong = wrong_faces(T, adj, hull, vertex_materials, material);
-  const auto snaps = junction_snaps(F.fields, F.embedding, T, adj, hull, material, wrong, vertex_h, vertex_materials);
-  for (const auto& [v, to] : snaps) {
-    set_vertex(v, to.position, to.feature, to.h);
-    T.points[v] = to.position;
-  }
-  rep.refinement_moves += snaps.size();
-  if (!snaps.empty()) {
+  const auto joins = wrong_vertex_junctions(F.fields, F.embedding, T, adj, hull, material, wrong, vertex_h, vertex_materials);
+  for (const auto& [v, to] : joins) set_vertex(v, points[v], to.feature, vertex_h[v]);
+  if (!joins.empty()) {
     rep.mend_relabelled += mend_topology(T, adj, hull, vertex_materials, kind, material).relabelled;
     wrong = wrong_faces(T, adj, hull, vertex_materials, material);
   }
-  if (mended.relabelled > 0 || !snaps.empty()) {
+  if (mended.relabelled > 0 || !joins.empty()) {
     rep.wrong_faces = wrong.size();
     faces_to_mend(wrong);
   }
   rep.delaunay_tets = T.tets.size();
   InterfaceMesh I = extract_interfaces(T, adj, hull, material, kind);
-  rep.junction_vertices = promote_junction_vertices(I, vertex_materials, kind);
+  rep.junction_vertices = joins.size() + promote_junction_vertices(I, vertex_materials, kind);
   rep.steps.push_back({"delaunay and extraction", "tetrahedralization", tetrahedralization_seconds});
   rep.steps.push_back({"delaunay and extraction", "extraction",
                        std::max(0.0, std::chrono::duration<double>(clock::now() - stage_start).count() -

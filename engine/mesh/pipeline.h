@@ -131,6 +131,8 @@ struct MeshReport {
   int refinement_rounds = 0;
   size_t mend_edges = 0, mend_relabelled = 0;  // after the refinement (mend_topology.h): fault edges, tets relabelled
   size_t junction_vertices = 0;  // vertices taken onto junctions within the crowding radius (extract.h, promote_...)
+                                 // or, where wrong faces were left after the mend, within half a voxel
+                                 // (refine.h, wrong_vertex_junctions)
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
   size_t interface_flips = 0;  // edges flipped inside one interface (interface_flips.h)

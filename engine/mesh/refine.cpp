@@ -397,7 +397,7 @@ size_t widen_to_near_junctions(const fields::IndicatorFields& F, const fields::C
   return widened;
 }
 
-std::vector<std::pair<uint32_t, RefinePoint>> junction_snaps(const fields::IndicatorFields& F,
+std::vector<std::pair<uint32_t, RefinePoint>> wrong_vertex_junctions(const fields::IndicatorFields& F,
                                                              const fields::ClosestPointEmbedding& E, const Tets& T,
                                                              const Adjacency& adj, const std::vector<uint16_t>& hull,
                                                              const std::vector<uint16_t>& material,

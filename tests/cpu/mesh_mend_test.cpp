@@ -1,7 +1,7 @@
 // mesh::mend_topology (mend_topology.h): four tets around one edge, labelled 1, 2, 1, 2 in turn, pinch interface 1/2
 // at that edge (four triangles): relabelling one run joins two of the others and leaves the edge in two triangles. A
 // slab far thinner than its sampling: fewer pinched edges after, counted by a plain loop, and no more wrong faces.
-// mesh::junction_snaps (refine.h): an interface vertex of a wrong face beside a triple curve goes onto the curve.
+// mesh::wrong_vertex_junctions (refine.h): an interface vertex of a wrong face beside a triple curve goes onto the curve.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -112,7 +112,7 @@ TEST_CASE("mend_topology: a sheet thinner than the sampling, pinched at many edg
   CHECK(mesh::wrong_faces(T, adj, hull, materials, material).size() <= wrong_before);
 }
 
-TEST_CASE("junction_snaps: an interface vertex of a wrong face a fifth of a voxel from the triple curve goes onto it; "
+TEST_CASE("wrong_vertex_junctions: an interface vertex of a wrong face a fifth of a voxel from the triple curve goes onto it; "
           "one a voxel away stays") {
   // Labels 1 (x < 8), 2 (x >= 8, y < 8) and 3 (x >= 8, y >= 8): interface 1/2 at x = 8 below y = 8, and the triple
   // curve of 1, 2 and 3 along z at about (7.5, 7.5) in voxel-centre coordinates.
@@ -149,16 +149,16 @@ TEST_CASE("junction_snaps: an interface vertex of a wrong face a fifth of a voxe
                                             fields::MaterialList(std::vector<uint16_t>{m3})};
     const std::vector<uint32_t> wrong = mesh::wrong_faces(T, adj, hull, vm, material);
     REQUIRE(wrong.size() == 1);
-    const auto snaps = mesh::junction_snaps(F, E, T, adj, hull, material, wrong, std::vector<float>(5, 1.0f), vm);
+    const auto joins = mesh::wrong_vertex_junctions(F, E, T, adj, hull, material, wrong, std::vector<float>(5, 1.0f), vm);
     if (away > 0.5) {
-      CHECK(snaps.empty());
+      CHECK(joins.empty());
       continue;
     }
-    REQUIRE(snaps.size() == 1);
-    CHECK(snaps[0].first == 0);
-    CHECK(snaps[0].second.feature == uint32_t(curve));
-    const glm::dvec3 to = snaps[0].second.position;
-    MESSAGE("snapped " << glm::length(to - v) << " voxel, to " << glm::length(to - on_curve) << " from the curve point");
+    REQUIRE(joins.size() == 1);
+    CHECK(joins[0].first == 0);
+    CHECK(joins[0].second.feature == uint32_t(curve));
+    const glm::dvec3 to = joins[0].second.position;
+    MESSAGE("closest point " << glm::length(to - v) << " voxel, to " << glm::length(to - on_curve) << " from the curve point");
     CHECK(fields::feature_distance(F, E.features[size_t(curve)], to) < 0.05);
     CHECK(glm::length(to - on_curve) < 0.1);
   }
