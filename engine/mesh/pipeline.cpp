@@ -482,7 +482,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
   // junction as its feature where it stands) and the mend again.
   const TopologyMendReport mended = mend_topology(T, adj, hull, vertex_materials, kind, material);
   rep.mend_edges = mended.edges, rep.mend_relabelled = mended.relabelled;
-  std::vector<uint32_t> wrong = wrong_faces(T, adj, hull, vertex_materials, material);
+  // The mend adds no wrong faces, so where the last round left none there are none to look for.
+  std::vector<uint32_t> wrong;
+  if (rep.wrong_faces > 0) wrong = wrong_faces(T, adj, hull, vertex_materials, material);
   const auto joins = wrong_vertex_junctions(F.fields, F.embedding, T, adj, hull, material, wrong, vertex_h, vertex_materials);
   for (const auto& [v, to] : joins) set_vertex(v, points[v], to.feature, vertex_h[v]);
   if (!joins.empty()) {

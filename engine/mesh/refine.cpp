@@ -403,6 +403,7 @@ std::vector<std::pair<uint32_t, RefinePoint>> wrong_vertex_junctions(const field
                                                              const std::vector<uint16_t>& material,
                                                              const std::vector<uint32_t>& wrong, const std::vector<float>& h,
                                                              const std::vector<fields::MaterialList>& vertex_materials) {
+  const double reach = kJunctionReach * F.grid.min_spacing();
   std::vector<std::pair<uint32_t, RefinePoint>> out;
   for (uint32_t tc : wrong) {
     const uint16_t m = material[tc / 4], o = material_across(adj, hull, material, tc);
@@ -410,9 +411,7 @@ std::vector<std::pair<uint32_t, RefinePoint>> wrong_vertex_junctions(const field
       const fields::MaterialList& own = vertex_materials[v];
       const bool taken = std::any_of(out.begin(), out.end(), [&](const auto& s) { return s.first == v; });
       if (own.size() != 2 || (own.has(m) && own.has(o)) || taken) continue;
-      const std::vector<uint16_t> needed = fields::union_of(std::span(&own, 1), {m, o});
-      const int f = needed.size() > 4 ? -1 : feature_of(E, needed);
-      const double reach = kJunctionReach * F.grid.min_spacing();
+      const int f = feature_of(E, fields::union_of(std::span(&own, 1), {m, o}));  // three or four materials
       const auto to = f < 0 ? std::nullopt : closest_on_feature(F, E, T.points[v], uint32_t(f), reach, h[v]);
       if (to && glm::length(to->position - T.points[v]) <= reach) out.push_back({v, *to});
     }
