@@ -507,8 +507,9 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
 
   begin("smoothing");
   rep.smoothing_moves = smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
+  rep.interface_collapses = collapse_interface_edges(I, vertex_h, options.collapses).collapses;
   rep.interface_flips = flip_interface_edges(I, options.flips).flips;
-  if (rep.interface_flips > 0)
+  if (rep.interface_collapses + rep.interface_flips > 0)
     rep.smoothing_moves += smooth_interfaces(F.fields, F.embedding, vertex_feature, I, options.smoothing).moves;
   T.points = I.vertices;  // the volume mesh's region points come from these tets
   // Label volumes (label_volumes.h): on the final vertices, so after the volume mesh's sliver moves where there is one.
@@ -522,7 +523,8 @@ MeshResult mesh_volume(gpu::Context& ctx, const io::LabelVolume& input, const Me
       rep.label_volumes.worst_label = labels[size_t(rep.label_volumes.worst_material)];
   };
   if (options.only_surfaces) match_volumes({});
-  stage_done(count(rep.smoothing_moves) + " vertex moves, " + count(rep.interface_flips) + " edge flips");
+  stage_done(count(rep.smoothing_moves) + " vertex moves, " + count(rep.interface_collapses) + " edge collapses, " +
+             count(rep.interface_flips) + " edge flips");
 
   begin("quality");
   interface_quality(I, kind, labels, rep);

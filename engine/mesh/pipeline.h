@@ -37,6 +37,7 @@
 #include "mesh/smooth.h"
 #include "mesh/surface_slivers.h"
 #include "mesh/volume_mesh.h"
+#include "mesh/interface_collapses.h"
 #include "mesh/interface_flips.h"
 #include "mesh/label_volumes.h"
 #include "mesh/tetgen.h"
@@ -53,6 +54,7 @@ struct MeshOptions {
   double junction_protection = 0.55;  // interface particles closer than this x h to a bounding triple curve or
                                       // quadruple point are left out of the mesh (particles::protect_junctions)
   SmoothOptions smoothing;     // of the interface meshes after extraction (smooth.h)
+  CollapseOptions collapses;   // after the first smoothing (interface_collapses.h; passes 0: off)
   FlipOptions flips;           // between two smoothings, where flips were made (interface_flips.h; passes 0: off)
   LabelVolumeOptions label_volumes;  // labels grown or shrunk to their voxel volume, last (label_volumes.h)
   int repair_rounds = 24;      // rounds of Delaunay refinement where wrong faces or non-manifold interface edges
@@ -135,6 +137,7 @@ struct MeshReport {
                                  // (refine.h, wrong_vertex_junctions)
   std::vector<RefinementLeft> refinement_left;  // the first kMaxRefinementLeft faces left to refine
   size_t smoothing_moves = 0;  // accepted vertex moves of the interface smoothing
+  size_t interface_collapses = 0;  // edges collapsed inside the interfaces (interface_collapses.h)
   size_t interface_flips = 0;  // edges flipped inside one interface (interface_flips.h)
   LabelVolumeReport label_volumes;  // MeshOptions::label_volumes
   TriangleStats surface;  // all interface triangles

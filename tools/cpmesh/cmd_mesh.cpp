@@ -131,6 +131,16 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
                   "midpoint; no move takes a triangle below radius ratio 0.3 and below what it was")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
+  sub->add_option("--collapse-passes", m.collapses.passes,
+                  "Passes of edge collapses inside the interfaces after the first smoothing (0: none): a vertex joins a "
+                  "neighbour on its feature (or the feature's curve or point) where their edge is under --collapse-length "
+                  "x the sizing h and the worst of its triangles gains radius ratio 0.05")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  sub->add_option("--collapse-length", m.collapses.max_length,
+                  "Longest edge a collapse may remove, as a share of the smaller sizing h at its ends")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   sub->add_option("--flip-passes", m.flips.passes,
                   "Passes of edge flips inside each interface between two smoothings (0: none): an edge is flipped "
                   "where the quad across it is flat within --flip-fold degrees and the worse triangle gains radius ratio 0.02")
@@ -252,6 +262,7 @@ Command add_mesh_command(CLI::App& app, const GlobalOptions& g) {
             j["off_feature_particles"] = rep.off_feature_particles;
             j["crowded_particles"] = rep.crowded_particles;
             j["smoothing_moves"] = rep.smoothing_moves;
+            j["interface_collapses"] = rep.interface_collapses;
             j["interface_flips"] = rep.interface_flips;
             j["label_volumes"] = {{"tolerance", o->mesh.label_volumes.tolerance},
                                   {"labels_moved", rep.label_volumes.labels_moved},
