@@ -12,6 +12,7 @@
 #include "mesh/interface_collapses.h"
 #include "mesh/interface_flips.h"
 #include "mesh/quality.h"
+#include "lattice.h"
 
 using namespace cpmesh;
 
@@ -21,45 +22,13 @@ constexpr int kColumns = 7, kRows = 7;
 
 uint32_t at(int i, int j) { return uint32_t(j * kColumns + i); }
 
-mesh::InterfaceMesh lattice() {
-  mesh::InterfaceMesh m;
-  const double h = std::sqrt(0.75);
-  for (int j = 0; j < kRows; ++j)
-    for (int i = 0; i < kColumns; ++i) m.vertices.push_back({i + 0.5 * (j % 2), j * h, 0.0});
-  for (int j = 0; j + 1 < kRows; ++j)
-    for (int i = 0; i + 1 < kColumns; ++i) {
-      if (j % 2 == 0) {
-        m.triangles.push_back({at(i, j), at(i + 1, j), at(i, j + 1)});
-        m.triangles.push_back({at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)});
-      } else {
-        m.triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-        m.triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      }
-    }
-  m.pair.assign(m.triangles.size(), {0, 1});
-  m.face.assign(m.triangles.size(), 7);
-  m.vertex_kind.assign(m.vertices.size(), uint8_t(fields::FeatureKind::interface));
-  return m;
-}
+mesh::InterfaceMesh lattice() { return test::lattice(kColumns, kRows); }
 
 // (3, 3) moved 80% of the way to (4, 3): their edge is 0.2 long.
 mesh::InterfaceMesh crowded() {
   mesh::InterfaceMesh m = lattice();
   m.vertices[at(3, 3)] += 0.8 * (m.vertices[at(4, 3)] - m.vertices[at(3, 3)]);
   return m;
-}
-
-double worst_ratio(const mesh::InterfaceMesh& m) {
-  double worst = 1;
-  for (const auto& t : m.triangles) worst = std::min(worst, mesh::radius_ratio(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]));
-  return worst;
-}
-
-bool every_normal_up(const mesh::InterfaceMesh& m) {
-  return std::all_of(m.triangles.begin(), m.triangles.end(), [&](const auto& t) {
-    const auto& V = m.vertices;
-    return glm::cross(V[t[1]] - V[t[0]], V[t[2]] - V[t[0]]).z > 0;
-  });
 }
 
 bool uses_vertex(const mesh::InterfaceMesh& m, uint32_t v) {
@@ -73,7 +42,6 @@ const std::vector<float> kH(kColumns * kRows, 1.0f);
 // z = 0 for y > 0 (interface 0/1) and y < 0 (0/2), and y = 0 for z > 0 (1/2).
 mesh::InterfaceMesh three_sheets() {
   mesh::InterfaceMesh m;
-  const double h = std::sqrt(0.75);
   for (int i = 0; i < kColumns; ++i) m.vertices.push_back({double(i), 0.0, 0.0});
   m.vertex_kind.assign(kColumns, uint8_t(fields::FeatureKind::triple_curve));
   const std::array<glm::dvec3, 3> out = {glm::dvec3(0, 1, 0), glm::dvec3(0, -1, 0), glm::dvec3(0, 0, 1)};
@@ -82,20 +50,10 @@ mesh::InterfaceMesh three_sheets() {
     auto at_sheet = [&](int i, int j) { return j == 0 ? uint32_t(i) : uint32_t(kColumns * (1 + 3 * s + j - 1) + i); };
     for (int j = 1; j < 4; ++j)
       for (int i = 0; i < kColumns; ++i) {
-        m.vertices.push_back(glm::dvec3(i + 0.5 * (j % 2), 0, 0) + j * h * out[size_t(s)]);
+        m.vertices.push_back(glm::dvec3(i + 0.5 * (j % 2), 0, 0) + j * test::kRowHeight * out[size_t(s)]);
         m.vertex_kind.push_back(uint8_t(fields::FeatureKind::interface));
       }
-    for (int j = 0; j < 3; ++j)
-      for (int i = 0; i + 1 < kColumns; ++i) {
-        if (j % 2 == 0) {
-          m.triangles.push_back({at_sheet(i, j), at_sheet(i + 1, j), at_sheet(i, j + 1)});
-          m.triangles.push_back({at_sheet(i + 1, j), at_sheet(i + 1, j + 1), at_sheet(i, j + 1)});
-        } else {
-          m.triangles.push_back({at_sheet(i, j), at_sheet(i + 1, j + 1), at_sheet(i, j + 1)});
-          m.triangles.push_back({at_sheet(i, j), at_sheet(i + 1, j), at_sheet(i + 1, j + 1)});
-        }
-        m.pair.insert(m.pair.end(), 2, pairs[size_t(s)]);
-      }
+    test::add_lattice_triangles(m, kColumns, 4, at_sheet, pairs[size_t(s)]);
   }
   m.face.assign(m.triangles.size(), 7);
   return m;
@@ -122,7 +80,7 @@ size_t curve_edges(const mesh::InterfaceMesh& m) {
 TEST_CASE("collapse_interface_edges: the crowded vertex goes and fair triangles are left") {
   mesh::InterfaceMesh m = crowded();
   const size_t triangles = m.triangles.size();
-  REQUIRE(worst_ratio(m) < 0.4);
+  REQUIRE(test::worst_ratio(m) < 0.4);
   const auto r = mesh::collapse_interface_edges(m, kH);
   CHECK(r.collapses == 1);
   CHECK(r.undone == 0);
@@ -130,8 +88,8 @@ TEST_CASE("collapse_interface_edges: the crowded vertex goes and fair triangles 
   CHECK(m.pair.size() == m.triangles.size());
   CHECK(m.face.size() == m.triangles.size());
   CHECK(uses_vertex(m, at(3, 3)) != uses_vertex(m, at(4, 3)));  // one of the two left
-  CHECK(worst_ratio(m) > 0.6);
-  CHECK(every_normal_up(m));
+  CHECK(test::worst_ratio(m) > 0.6);
+  CHECK(test::every_normal_up(m));
   CHECK(mesh::odd_edges(m.triangles) == mesh::odd_edges(lattice().triangles));
   CHECK(std::count(m.face.begin(), m.face.end(), mesh::kNoFace) == 4);  // the changed ones
   CHECK(mesh::collapse_interface_edges(m, kH).collapses == 0);  // nothing left to gain
@@ -141,8 +99,8 @@ TEST_CASE("collapse_interface_edges: a crowded vertex standing out of its sheet 
   mesh::InterfaceMesh m = crowded();
   m.vertices[at(3, 3)].z = 0.2;  // its triangles tilt by up to 45 degrees
   CHECK(mesh::collapse_interface_edges(m, kH).collapses == 1);
-  CHECK(worst_ratio(m) > 0.6);
-  CHECK(every_normal_up(m));
+  CHECK(test::worst_ratio(m) > 0.6);
+  CHECK(test::every_normal_up(m));
 }
 
 TEST_CASE("collapse_interface_edges: a quadruple point stays, a long edge or no passes changes nothing") {
@@ -182,5 +140,5 @@ TEST_CASE("collapse_interface_edges: a crowded curve vertex goes along its curve
   CHECK(m.triangles.size() == triangles - 3);  // one of each interface on the curve edge
   CHECK(uses_vertex(m, 3) != uses_vertex(m, 4));
   CHECK(curve_edges(m) == kColumns - 2);  // the curve runs through the other one
-  CHECK(worst_ratio(m) > 0.6);
+  CHECK(test::worst_ratio(m) > 0.6);
 }

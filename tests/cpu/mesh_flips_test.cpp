@@ -9,6 +9,7 @@
 
 #include "mesh/interface_flips.h"
 #include "mesh/quality.h"
+#include "lattice.h"
 
 using namespace cpmesh;
 
@@ -18,32 +19,7 @@ constexpr int kColumns = 6, kRows = 6;
 
 uint32_t at(int i, int j) { return uint32_t(j * kColumns + i); }
 
-mesh::InterfaceMesh lattice() {
-  mesh::InterfaceMesh m;
-  const double h = std::sqrt(0.75);
-  for (int j = 0; j < kRows; ++j)
-    for (int i = 0; i < kColumns; ++i) m.vertices.push_back({i + 0.5 * (j % 2), j * h, 0.0});
-  for (int j = 0; j + 1 < kRows; ++j)
-    for (int i = 0; i + 1 < kColumns; ++i) {
-      if (j % 2 == 0) {
-        m.triangles.push_back({at(i, j), at(i + 1, j), at(i, j + 1)});
-        m.triangles.push_back({at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)});
-      } else {
-        m.triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-        m.triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      }
-    }
-  m.pair.assign(m.triangles.size(), {0, 1});
-  m.face.assign(m.triangles.size(), 7);
-  m.vertex_kind.assign(m.vertices.size(), 2);
-  return m;
-}
-
-double worst_ratio(const mesh::InterfaceMesh& m) {
-  double worst = 1;
-  for (const auto& t : m.triangles) worst = std::min(worst, mesh::radius_ratio(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]));
-  return worst;
-}
+mesh::InterfaceMesh lattice() { return test::lattice(kColumns, kRows); }
 
 // The two triangles of the rhombus around the edge (2, 2)-(3, 2) of row 2 (an even row): below it (2, 2), (3, 2),
 // (2, 3) and above (3, 2), (3, 3), (2, 3) share the edge (3, 2)-(2, 3); turned to the diagonal (2, 2)-(3, 3).
@@ -60,13 +36,6 @@ std::array<size_t, 2> turn_one_edge(mesh::InterfaceMesh& m) {
   return ts;
 }
 
-bool every_normal_up(const mesh::InterfaceMesh& m) {
-  return std::all_of(m.triangles.begin(), m.triangles.end(), [&](const auto& t) {
-    const auto& V = m.vertices;
-    return glm::cross(V[t[1]] - V[t[0]], V[t[2]] - V[t[0]]).z > 0;
-  });
-}
-
 bool edges_manifold(const mesh::InterfaceMesh& m) {
   std::map<std::pair<uint32_t, uint32_t>, int> uses;
   for (const auto& t : m.triangles)
@@ -78,15 +47,15 @@ bool edges_manifold(const mesh::InterfaceMesh& m) {
 
 TEST_CASE("flip_interface_edges: the lattice with one long diagonal gets its short diagonal back") {
   mesh::InterfaceMesh m = lattice();
-  REQUIRE(worst_ratio(m) > 0.999);
+  REQUIRE(test::worst_ratio(m) > 0.999);
   const auto ts = turn_one_edge(m);
-  REQUIRE(every_normal_up(m));
-  REQUIRE(worst_ratio(m) < 0.47);
+  REQUIRE(test::every_normal_up(m));
+  REQUIRE(test::worst_ratio(m) < 0.47);
   const auto r = mesh::flip_interface_edges(m);
   CHECK(r.flips == 1);
   CHECK(r.undone == 0);
-  CHECK(worst_ratio(m) > 0.999);
-  CHECK(every_normal_up(m));
+  CHECK(test::worst_ratio(m) > 0.999);
+  CHECK(test::every_normal_up(m));
   CHECK(edges_manifold(m));
   CHECK(m.face[ts[0]] == mesh::kNoFace);
   CHECK(m.face[ts[1]] == mesh::kNoFace);
