@@ -147,7 +147,8 @@ bool link_condition(const InterfaceMesh& m, const ElementsAround<3>& around, con
   return shared_edges.empty() && shared == of_edge;
 }
 
-// The edge (b, a) as the feature rules of interface_collapses.h allow it: its triangles, or none.
+// The edge (b, a) as the feature rules of interface_collapses.h allow it: its triangles, or none. (The topology rules,
+// dearer, come once the collapse is known to gain.)
 std::vector<uint32_t> edge_triangles(const InterfaceMesh& m, const ElementsAround<3>& around,
                                      const std::vector<std::vector<uint16_t>>& met, uint32_t b, uint32_t a) {
   const auto kb = FeatureKind(m.vertex_kind[b]);
@@ -163,10 +164,7 @@ std::vector<uint32_t> edge_triangles(const InterfaceMesh& m, const ElementsAroun
   const bool distinct = std::adjacent_find(pairs.begin(), pairs.end()) == pairs.end();
   const bool inner = on.size() == 2 && pairs[0] == pairs[1];
   const bool curve = on.size() == 3 && distinct;
-  if (!(kb == FeatureKind::interface ? inner : curve)) return {};
-  for (const Pair& p : pairs)
-    if (!link_condition(m, around, p, a, b)) return {};
-  return on;
+  return (kb == FeatureKind::interface ? inner : curve) ? on : std::vector<uint32_t>{};
 }
 
 // The collapse of b into a with its gain, if the rules allow it.
@@ -205,8 +203,11 @@ bool collapse_of(const InterfaceMesh& m, const ElementsAround<3>& around, const 
     star_before.push_back({m.triangles[t], m.pair[t]});
     if (std::find(c.gone.begin(), c.gone.end(), t) == c.gone.end()) star_after.push_back(star_before.back());
   }
-  return edges_valid(edges_at(a, star_after)) && one_fan_each(a, star_before) && one_fan_each(b, star_b) &&
-         one_fan_each(a, star_after);
+  if (!edges_valid(edges_at(a, star_after)) || !one_fan_each(a, star_before) || !one_fan_each(b, star_b) ||
+      !one_fan_each(a, star_after))
+    return false;
+  return std::all_of(c.gone.begin(), c.gone.end(),
+                     [&](uint32_t t) { return link_condition(m, around, m.pair[t], a, b); });
 }
 
 std::vector<Collapse> candidates(const InterfaceMesh& m, const std::vector<float>& h, const CollapseOptions& o) {
