@@ -210,8 +210,8 @@ bool collapse_of(const InterfaceMesh& m, const ElementsAround<3>& around, const 
                      [&](uint32_t t) { return link_condition(m, around, m.pair[t], a, b); });
 }
 
-std::vector<Collapse> candidates(const InterfaceMesh& m, const std::vector<float>& h, const CollapseOptions& o) {
-  const ElementsAround<3> around(m.vertices.size(), m.triangles);
+std::vector<Collapse> candidates(const InterfaceMesh& m, const ElementsAround<3>& around, const std::vector<float>& h,
+                                const CollapseOptions& o) {
   const auto met = met_materials(m);
   std::vector<std::array<uint32_t, 2>> edges;
   for (const Triangle& t : m.triangles)
@@ -244,7 +244,7 @@ std::vector<Made> apply_pass(InterfaceMesh& m, const std::vector<float>& h, cons
   const ElementsAround<3> around(m.vertices.size(), T);
   std::vector<uint8_t> touched(T.size(), 0);
   std::vector<Made> made;
-  for (Collapse& c : candidates(m, h, o)) {
+  for (Collapse& c : candidates(m, around, h, o)) {
     bool free = true;
     for (uint32_t v : {c.from, c.to})
       for (uint32_t t : around[v]) free = free && !touched[t];
@@ -265,13 +265,12 @@ void undo(InterfaceMesh& m, const Made& k, std::vector<uint8_t>& dead) {
   for (uint32_t t : k.collapse.changed) m.triangles[t] = k.before[i++];
 }
 
-// Undoes the collapses with a changed triangle that crosses another, until none is left; returns how many.
-size_t undo_crossings(InterfaceMesh& m, const std::vector<Made>& made, std::vector<uint8_t>& dead) {
+// Undoes the collapses with a changed triangle that crosses another, until none is left; returns which are kept.
+std::vector<uint8_t> undo_crossings(InterfaceMesh& m, const std::vector<Made>& made, std::vector<uint8_t>& dead) {
   std::vector<size_t> owner(m.triangles.size(), SIZE_MAX);
   for (size_t k = 0; k < made.size(); ++k)
     for (uint32_t t : made[k].collapse.changed) owner[t] = k;
   std::vector<uint8_t> kept(made.size(), 1);
-  size_t undone = 0;
   for (bool again = !made.empty(); again;) {
     again = false;
     std::vector<Triangle> live;
@@ -285,28 +284,29 @@ size_t undo_crossings(InterfaceMesh& m, const std::vector<Made>& made, std::vect
         if (k == SIZE_MAX || !kept[k]) continue;
         undo(m, made[k], dead);
         kept[k] = 0;
-        ++undone;
         again = true;
       }
   }
-  return undone;
+  return kept;
 }
 
-// Drops the dead triangles; the changed ones are no Delaunay faces any more.
-void compact(InterfaceMesh& m, const std::vector<Made>& made, const std::vector<uint8_t>& dead) {
+// Drops the dead triangles; the changed ones of the kept collapses are no Delaunay faces any more.
+void compact(InterfaceMesh& m, const std::vector<Made>& made, const std::vector<uint8_t>& kept,
+             const std::vector<uint8_t>& dead) {
   if (!m.face.empty())
-    for (const Made& k : made)
-      for (uint32_t t : k.collapse.changed) m.face[t] = kNoFace;
-  size_t kept = 0;
+    for (size_t k = 0; k < made.size(); ++k)
+      if (kept[k])
+        for (uint32_t t : made[k].collapse.changed) m.face[t] = kNoFace;
+  size_t live = 0;
   for (size_t t = 0; t < m.triangles.size(); ++t) {
     if (dead[t]) continue;
-    m.triangles[kept] = m.triangles[t];
-    m.pair[kept] = m.pair[t];
-    if (!m.face.empty()) m.face[kept] = m.face[t];
-    ++kept;
+    m.triangles[live] = m.triangles[t];
+    m.pair[live] = m.pair[t];
+    if (!m.face.empty()) m.face[live] = m.face[t];
+    ++live;
   }
-  m.triangles.resize(kept), m.pair.resize(kept);
-  if (!m.face.empty()) m.face.resize(kept);
+  m.triangles.resize(live), m.pair.resize(live);
+  if (!m.face.empty()) m.face.resize(live);
 }
 
 }  // namespace
@@ -317,8 +317,9 @@ CollapseReport collapse_interface_edges(InterfaceMesh& mesh, const std::vector<f
   for (int pass = 0; pass < options.passes; ++pass) {
     std::vector<uint8_t> dead(mesh.triangles.size(), 0);
     const std::vector<Made> made = apply_pass(mesh, vertex_h, options, dead);
-    const size_t undone = undo_crossings(mesh, made, dead);
-    compact(mesh, made, dead);
+    const std::vector<uint8_t> kept = undo_crossings(mesh, made, dead);
+    compact(mesh, made, kept, dead);
+    const size_t undone = made.size() - size_t(std::count(kept.begin(), kept.end(), 1));
     report.collapses += made.size() - undone;
     report.undone += undone;
     if (made.size() == undone) break;
